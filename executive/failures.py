@@ -1,0 +1,343 @@
+"""CRAM's common failure hierarchy, under :class:`cpl.PlanFailure`.
+
+Low-level failures are raised by process modules (the body of the robot); high-level
+failures are raised by plans. The tree follows CRAM's ``cram_common_failures`` at the
+HEAD we take as reference. CRAM's oddities that plans depend on are kept on purpose:
+
+- :class:`TorsoLowLevelFailure` and :class:`GripperLowLevelFailure` are *manipulation*
+  failures, so a handler for :class:`ManipulationLowLevelFailure` also sees a torso or
+  gripper failure (``fetch`` relies on this when it relocates).
+- :class:`DesignatorError` is *not* a plan failure (CRAM's ``designator-error`` is a
+  ``simple-error``): a designator that cannot be resolved is bad input, and plans translate
+  it explicitly into the high-level failure that fits. :class:`DesignatorReferenceFailure`
+  is both, as CRAM's ``designator-reference-failure``.
+
+Every class carries ``cram_name``, CRAM's spelling, so the task tree and logs read like CRAM.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from cpl import PlanFailure
+
+__all__ = [
+    "ActionlibActionTimedOut",
+    "DeliveringFailed",
+    "DesignatorError",
+    "DesignatorReferenceFailure",
+    "EnvironmentManipulationGoalNotReached",
+    "EnvironmentManipulationImpossible",
+    "EnvironmentUnreachable",
+    "FetchingFailed",
+    "GripperClosedCompletely",
+    "GripperGoalNotReached",
+    "GripperLowLevelFailure",
+    "HighLevelFailure",
+    "LookingHighLevelFailure",
+    "LowLevelFailure",
+    "ManipulationGoalInCollision",
+    "ManipulationGoalNotReached",
+    "ManipulationLowLevelFailure",
+    "ManipulationPoseUnreachable",
+    "NavigationGoalInCollision",
+    "NavigationGoalNotReached",
+    "NavigationHighLevelFailure",
+    "NavigationLowLevelFailure",
+    "NavigationPoseUnreachable",
+    "NoProcessModule",
+    "ObjectNowhereToBeFound",
+    "ObjectUndeliverable",
+    "ObjectUnfetchable",
+    "ObjectUnreachable",
+    "PerceptionLowLevelFailure",
+    "PerceptionObjectNotFound",
+    "PerceptionObjectNotInWorld",
+    "PtuGoalNotReached",
+    "PtuGoalUnreachable",
+    "PtuLowLevelFailure",
+    "SearchingFailed",
+    "TorsoGoalNotReached",
+    "TorsoGoalUnreachable",
+    "TorsoLowLevelFailure",
+    "cram_name_of",
+]
+
+
+class _Described(PlanFailure):
+    """A plan failure with a ``description`` (CRAM's ``simple-plan-failure`` family)."""
+
+    cram_name = "simple-plan-failure"
+
+    def __init__(self, description: str | None = None, **details: Any) -> None:
+        super().__init__(description, **details)
+
+    @property
+    def description(self) -> str:
+        return self.message
+
+
+def _field(name: str) -> property:
+    def get(self: PlanFailure) -> Any:
+        return self.details.get(name)
+
+    return property(get, doc=f"The failure's ``{name}`` field (``None`` when not given).")
+
+
+# --------------------------------------------------------------------------- low level
+class LowLevelFailure(_Described):
+    """Thrown by process modules."""
+
+    cram_name = "low-level-failure"
+    default_message = "Low-level failure."
+
+
+class ActionlibActionTimedOut(LowLevelFailure):
+    cram_name = "actionlib-action-timed-out"
+    default_message = "Action timed out."
+
+
+class ManipulationLowLevelFailure(LowLevelFailure):
+    cram_name = "manipulation-low-level-failure"
+    default_message = "Manipulation failed."
+
+
+class ManipulationGoalNotReached(ManipulationLowLevelFailure):
+    cram_name = "manipulation-goal-not-reached"
+    default_message = "Manipulation goal not reached."
+
+
+class ManipulationPoseUnreachable(ManipulationLowLevelFailure):
+    """No IK solution (or one that forward kinematics does not confirm)."""
+
+    cram_name = "manipulation-pose-unreachable"
+    default_message = "Manipulation pose unreachable."
+
+
+class GripperLowLevelFailure(ManipulationLowLevelFailure):
+    """Kept under manipulation failures as in CRAM's HEAD. Field: ``action``."""
+
+    cram_name = "gripper-low-level-failure"
+    default_message = "Gripper failed."
+    action = _field("action")
+
+
+class GripperClosedCompletely(GripperLowLevelFailure):
+    """The gripper closed without anything between its fingers."""
+
+    cram_name = "gripper-closed-completely"
+    default_message = "Gripper closed completely: nothing gripped."
+
+
+class GripperGoalNotReached(GripperLowLevelFailure):
+    cram_name = "gripper-goal-not-reached"
+    default_message = "Gripper goal not reached."
+
+
+class TorsoLowLevelFailure(ManipulationLowLevelFailure):
+    """A torso failure is a manipulation failure in CRAM; we keep it. Field: ``torso``."""
+
+    cram_name = "torso-low-level-failure"
+    default_message = "Torso failed."
+    torso = _field("torso")
+
+
+class TorsoGoalUnreachable(TorsoLowLevelFailure):
+    cram_name = "torso-goal-unreachable"
+    default_message = "Torso goal unreachable."
+
+
+class TorsoGoalNotReached(TorsoLowLevelFailure):
+    cram_name = "torso-goal-not-reached"
+    default_message = "Torso goal not reached (outside the joint limits)."
+
+
+class EnvironmentManipulationGoalNotReached(ManipulationLowLevelFailure):
+    cram_name = "environment-manipulation-goal-not-reached"
+    default_message = "Environment manipulation goal not reached."
+
+
+class NavigationLowLevelFailure(LowLevelFailure):
+    """Field: ``location`` (the goal pose or designator)."""
+
+    cram_name = "navigation-low-level-failure"
+    default_message = "Navigation failed."
+    location = _field("location")
+
+
+class NavigationPoseUnreachable(NavigationLowLevelFailure):
+    """The base would collide at the goal (``drive`` restored the previous pose)."""
+
+    cram_name = "navigation-pose-unreachable"
+    default_message = "Navigation pose unreachable: the robot would be in collision."
+
+
+class NavigationGoalNotReached(NavigationLowLevelFailure):
+    cram_name = "navigation-goal-not-reached"
+    default_message = "Navigation goal not reached."
+
+
+class PerceptionLowLevelFailure(LowLevelFailure):
+    cram_name = "perception-low-level-failure"
+    default_message = "Perception failed."
+
+
+class PerceptionObjectNotFound(PerceptionLowLevelFailure):
+    """Nothing matching the object designator is visible. Field: ``object``."""
+
+    cram_name = "perception-object-not-found"
+    default_message = "Object not found."
+    object = _field("object")
+
+
+class PerceptionObjectNotInWorld(PerceptionLowLevelFailure):
+    cram_name = "perception-object-not-in-world"
+    default_message = "Object not in the world."
+    object = _field("object")
+
+
+class PtuLowLevelFailure(LowLevelFailure):
+    """Pan-tilt unit failures. Field: ``target``."""
+
+    cram_name = "ptu-low-level-failure"
+    default_message = "Pan-tilt unit failed."
+    target = _field("target")
+
+
+class PtuGoalUnreachable(PtuLowLevelFailure):
+    cram_name = "ptu-goal-unreachable"
+    default_message = "Pan-tilt goal unreachable."
+
+
+class PtuGoalNotReached(PtuLowLevelFailure):
+    """Pan or tilt had to be clamped to the joint limits."""
+
+    cram_name = "ptu-goal-not-reached"
+    default_message = "Pan-tilt goal not reached (beyond the joint limits)."
+
+
+# -------------------------------------------------------------------------- high level
+class HighLevelFailure(_Described):
+    """Thrown by plans."""
+
+    cram_name = "high-level-failure"
+    default_message = "High-level failure."
+
+
+class NavigationHighLevelFailure(HighLevelFailure):
+    cram_name = "navigation-high-level-failure"
+    default_message = "Navigation failed."
+
+
+class NavigationGoalInCollision(NavigationHighLevelFailure):
+    """No collision-free base pose among the samples tried. Field: ``pose``."""
+
+    cram_name = "navigation-goal-in-collision"
+    default_message = "Navigation goal in collision."
+    pose = _field("pose")
+
+
+class LookingHighLevelFailure(HighLevelFailure):
+    cram_name = "looking-high-level-failure"
+    default_message = "Could not look at the target."
+
+
+class ObjectUnreachable(HighLevelFailure):
+    """No IK / collision-free arm configuration. Field: ``object``."""
+
+    cram_name = "object-unreachable"
+    default_message = "Object unreachable."
+    object = _field("object")
+
+
+class ManipulationGoalInCollision(HighLevelFailure):
+    cram_name = "manipulation-goal-in-collision"
+    default_message = "Manipulation goal in collision."
+
+
+class ObjectUnfetchable(HighLevelFailure):
+    cram_name = "object-unfetchable"
+    default_message = "Object unfetchable."
+    object = _field("object")
+
+
+class ObjectUndeliverable(HighLevelFailure):
+    cram_name = "object-undeliverable"
+    default_message = "Object undeliverable."
+    object = _field("object")
+
+
+class ObjectNowhereToBeFound(HighLevelFailure):
+    cram_name = "object-nowhere-to-be-found"
+    default_message = "Object nowhere to be found."
+    object = _field("object")
+
+
+class EnvironmentUnreachable(HighLevelFailure):
+    cram_name = "environment-unreachable"
+    default_message = "Environment unreachable."
+
+
+class EnvironmentManipulationImpossible(HighLevelFailure):
+    cram_name = "environment-manipulation-impossible"
+    default_message = "Environment manipulation impossible."
+
+
+class SearchingFailed(HighLevelFailure):
+    cram_name = "searching-failed"
+    default_message = "Searching failed."
+    object = _field("object")
+
+
+class FetchingFailed(HighLevelFailure):
+    cram_name = "fetching-failed"
+    default_message = "Fetching failed."
+    object = _field("object")
+
+
+class DeliveringFailed(HighLevelFailure):
+    cram_name = "delivering-failed"
+    default_message = "Delivering failed."
+    object = _field("object")
+
+
+# ------------------------------------------------------------------- designators, dispatch
+class DesignatorError(Exception):
+    """A designator cannot be resolved: unknown type, missing or invalid property, no
+    solution. Not a plan failure (as in CRAM); the message names the designator and what
+    to fix. Field: ``designator``."""
+
+    cram_name = "designator-error"
+
+    def __init__(self, message: str, designator: Any = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.designator = designator
+
+
+class DesignatorReferenceFailure(PlanFailure, DesignatorError):
+    """Both a plan failure and a designator error (CRAM's
+    ``designator-reference-failure``), for plans that want resolution trouble handled like
+    any other failure."""
+
+    cram_name = "designator-reference-failure"
+
+    def __init__(self, message: str, designator: Any = None) -> None:
+        PlanFailure.__init__(self, message, designator=designator)
+        self.designator = designator
+
+
+class NoProcessModule(PlanFailure):
+    """``perform`` found no running process module that accepts a motion. Field:
+    ``motion``."""
+
+    cram_name = "no-process-module"
+    default_message = "No running process module accepts this motion."
+    motion = _field("motion")
+
+
+def cram_name_of(failure: BaseException | type[BaseException]) -> str:
+    """CRAM's spelling of a failure (class or instance); the class name for others."""
+    cls = failure if isinstance(failure, type) else type(failure)
+    name = getattr(cls, "cram_name", None)
+    return name if isinstance(name, str) else cls.__name__
