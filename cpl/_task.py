@@ -1,0 +1,615 @@
+"""Tasks: the nodes of the task tree, each running on its own asyncio task.
+
+Life cycle (see :class:`~cpl.Status`): a task is CREATED, RUNNING once its asyncio task
+executes, may be SUSPENDED and woken, and ends SUCCEEDED (with a result), FAILED (with the
+failure object, re-raised unchanged by every join) or EVAPORATED (cancelled; joins give
+``None``).
+
+Design notes, and where we differ from CRAM:
+
+- A cpl task wraps an asyncio task whose coroutine is :meth:`Task._main`. Joiners never
+  await that asyncio task: they wait on futures of their own, so cancelling a joiner never
+  leaks into the joined task (asyncio would otherwise cancel the awaited task too).
+- When a task's body has finished (returned, failed or been evaporated), the task
+  evaporates every child still alive and **waits for them** before its own status changes,
+  also when it failed (CRAM evaporates asynchronously on failure; we always wait, so that
+  "every task is dead when ``run`` returns" holds).
+- Order of cleanup: a form (``par``, ``pursue``, a joined plan call, ...) evaporates its
+  children and waits for them *before* the exception unwinds further, so children's
+  ``finally`` blocks run before the parent's. CRAM runs the parent's own cleanups first;
+  structured concurrency on asyncio makes the inner-first order the natural one.
+- Evaporation is asyncio cancellation. Waiting for the children to die during teardown
+  survives further cancellations (it keeps waiting and re-raises afterwards), so cleanup
+  cannot be cut short by a second evaporation.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+from collections.abc import Awaitable, Callable, Coroutine, Generator
+from typing import Any
+
+from ._failures import Evaporated
+from ._instruments import InstrumentSet
+from ._scheduling import CURRENT_TASK, block_until
+from ._status import LEGAL_TRANSITIONS, Status
+
+__all__ = ["Task", "current_task", "spawn", "with_task"]
+
+_CREATED = Status.CREATED
+_RUNNING = Status.RUNNING
+_SUSPENDED = Status.SUSPENDED
+_SUCCEEDED = Status.SUCCEEDED
+_FAILED = Status.FAILED
+_EVAPORATED = Status.EVAPORATED
+_DEAD = frozenset({_SUCCEEDED, _FAILED, _EVAPORATED})
+
+
+class Task:
+    """A node of the task tree.
+
+    ``cpl.Task(aw, name=...)`` creates a task that exists before it runs (CRAM's tags): it
+    becomes a child of the current task at once, is shown as CREATED, and starts when a
+    form (``par``, ``partial_order``, ...) receives it or when :meth:`start` is called. A
+    task still CREATED when its parent finishes is evaporated without ever running.
+
+    ``aw`` is a coroutine or a zero-argument async callable.
+    """
+
+    __slots__ = (
+        "__weakref__",
+        "_active_forms",
+        "_atask",
+        "_aw",
+        "_blocked_on",
+        "_children",
+        "_constraints",
+        "_entry",
+        "_name_counts",
+        "_on_finish",
+        "_resume",
+        "_run",
+        "_state",
+        "_status_fluent",
+        "_suspend_requested",
+        "_suspension_handlers",
+        "_waiters",
+        "annotations",
+        "arguments",
+        "end_time",
+        "evaporation",
+        "failure",
+        "kind",
+        "name",
+        "parent",
+        "result",
+        "start_time",
+        "waiting_on",
+    )
+
+    def __init__(
+        self,
+        aw: Awaitable[Any] | Callable[[], Awaitable[Any]] | None,
+        name: str | None = None,
+        *,
+        kind: str = "task",
+        arguments: dict[str, Any] | None = None,
+        annotations: dict[str, Any] | None = None,
+        parent: Task | None = None,
+        _register: bool = True,
+    ) -> None:
+        if aw is not None and not inspect.isawaitable(aw) and not callable(aw):
+            raise TypeError(
+                f"a cpl task runs a coroutine or a zero-argument async callable, got "
+                f"{type(aw).__name__}; did you mean to call the function first?"
+            )
+        self.name: str = name if name is not None else _name_of(aw)
+        self.kind: str = kind
+        self._aw: Any = aw
+        self._atask: asyncio.Task[None] | None = None
+        # Invariant: _state moves only along LEGAL_TRANSITIONS (checked in _set_state).
+        self._state: Status = _CREATED
+        self._status_fluent: Any = None  # created on first access of .status
+        self._children: list[Task] | None = None  # creation order
+        self._name_counts: dict[str, int] | None = None
+        self._entry: str = self.name
+        self._waiters: list[asyncio.Future[None]] | None = None  # woken on every change
+        self._on_finish: Callable[[Task], None] | None = None  # a form's supervisor
+        self._constraints: list[Task] | None = None  # partial order: start after these die
+        self._suspend_requested: bool = False
+        self._resume: asyncio.Future[None] | None = None
+        self._blocked_on: asyncio.Future[Any] | None = None
+        self._suspension_handlers: list[Callable[[], Any]] | None = None
+        self._active_forms: list[Task] | None = None
+        self.result: Any = None
+        self.failure: BaseException | None = None
+        self.evaporation: Evaporated | None = None
+        self.start_time: float | None = None
+        self.end_time: float | None = None
+        self.arguments: dict[str, Any] | None = arguments
+        self.annotations: dict[str, Any] | None = annotations
+        self.waiting_on: str | None = None
+        self.parent: Task | None = None
+        self._run: Any = None
+        if _register:
+            owner = parent if parent is not None else CURRENT_TASK.get()
+            if owner is not None:
+                owner._adopt(self)
+
+    # ------------------------------------------------------------------ tree structure
+    def _adopt(self, child: Task) -> None:
+        """Make ``child`` a child of this task, naming its path entry (``name#n`` when the
+        name repeats at this place, CRAM's ``:call n``)."""
+        child.parent = self
+        child._run = self._run
+        counts = self._name_counts
+        if counts is None:
+            counts = self._name_counts = {}
+        n = counts.get(child.name, 0) + 1
+        counts[child.name] = n
+        child._entry = child.name if n == 1 else f"{child.name}#{n}"
+        if self._children is None:
+            self._children = [child]
+        else:
+            self._children.append(child)
+        run = self._run
+        if run is not None and run.instruments.task_spawned:
+            for hook in run.instruments.task_spawned:
+                hook(child)
+
+    def _move_under(self, new_parent: Task) -> None:
+        """Re-parent a CREATED task (a pre-made tag handed to a form)."""
+        old = self.parent
+        if old is new_parent:
+            return
+        if old is not None and old._children is not None:
+            old._children.remove(self)
+        new_parent._adopt(self)
+
+    @property
+    def children(self) -> list[Task]:
+        """The child tasks in creation order (a copy)."""
+        return list(self._children) if self._children else []
+
+    @property
+    def path(self) -> tuple[str, ...]:
+        """Path entries from the top level down to this task."""
+        parts: list[str] = []
+        node: Task | None = self
+        while node is not None:
+            parts.append(node._entry)
+            node = node.parent
+        parts.reverse()
+        return tuple(parts)
+
+    # ------------------------------------------------------------------------- status
+    @property
+    def state(self) -> Status:
+        """The current status (without creating the status fluent)."""
+        return self._state
+
+    @property
+    def status(self) -> Any:
+        """The status as a :class:`~cpl.Fluent` (created on first access)."""
+        fl = self._status_fluent
+        if fl is None:
+            from ._fluents import Fluent
+
+            fl = self._status_fluent = Fluent(self._state, name=f"{self.name}.status")
+        return fl
+
+    @property
+    def alive(self) -> bool:
+        return self._state not in _DEAD
+
+    @property
+    def dead(self) -> bool:
+        return self._state in _DEAD
+
+    def _set_state(self, new: Status) -> None:
+        old = self._state
+        if old is new:
+            return
+        if new not in LEGAL_TRANSITIONS[old]:
+            raise RuntimeError(f"illegal status transition {old.name} -> {new.name} of {self!r}")
+        self._state = new
+        fl = self._status_fluent
+        if fl is not None:
+            fl.value = new
+        waiters = self._waiters
+        if waiters is not None:
+            self._waiters = None
+            for fut in waiters:
+                if not fut.done():
+                    fut.set_result(None)
+        run = self._run
+        if run is not None:
+            hooks = run.instruments.task_status_changed
+            if hooks:
+                for hook in hooks:
+                    hook(self, old, new)
+
+    def _add_waiter(self) -> asyncio.Future[None]:
+        fut: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        if self._waiters is None:
+            self._waiters = [fut]
+        else:
+            self._waiters.append(fut)
+        return fut
+
+    def _drop_waiter(self, fut: asyncio.Future[None]) -> None:
+        if self._waiters is not None and not fut.done():
+            try:
+                self._waiters.remove(fut)
+            except ValueError:
+                pass
+
+    # -------------------------------------------------------------------- annotations
+    def annotate(self, key: str, value: Any) -> None:
+        """Attach a free-form annotation shown in the task tree (e.g. the designator)."""
+        if self.annotations is None:
+            self.annotations = {}
+        self.annotations[key] = value
+
+    # ----------------------------------------------------------------------- starting
+    def start(self) -> Task:
+        """Start a CREATED task (a no-op if it already started). Returns the task."""
+        if self._state is not _CREATED or self._atask is not None:
+            return self
+        if self.parent is None and self.kind != "top-level":
+            owner = CURRENT_TASK.get()
+            if owner is None:
+                raise RuntimeError(
+                    f"task {self.name!r} has no parent: start it inside a cpl task "
+                    "(cpl.run / cpl.top_level) or hand it to a form"
+                )
+            owner._adopt(self)
+        self._atask = asyncio.get_running_loop().create_task(self._main())
+        return self
+
+    async def _main(self) -> None:
+        CURRENT_TASK.set(self)
+        if self.evaporation is not None:  # evaporated before it got to run
+            self._close_aw()
+            self._finish(_EVAPORATED)
+            return
+        loop = asyncio.get_running_loop()
+        self.start_time = loop.time()
+        self._set_state(_RUNNING)
+        outcome = _SUCCEEDED
+        reraise: BaseException | None = None
+        try:
+            if self._constraints:
+                await self._await_constraints()
+            if self._suspend_requested:
+                await self._suspend_here()
+            aw = self._aw
+            self._aw = None
+            if not inspect.isawaitable(aw):
+                aw = aw()
+                if not inspect.isawaitable(aw):
+                    raise TypeError(
+                        f"task {self.name!r}: the callable returned {type(aw).__name__}, "
+                        "not an awaitable; pass an async function"
+                    )
+            self.result = await aw
+        except asyncio.CancelledError as exc:
+            atask = self._atask
+            if self.evaporation is not None:
+                outcome = _EVAPORATED
+            elif atask is not None and atask.cancelling():
+                # Someone cancelled our asyncio task directly: evaporation from outside.
+                self.evaporation = Evaporated("cancelled outside cpl", None)
+                outcome = _EVAPORATED
+                reraise = exc
+            else:
+                # A CancelledError we did not ask for (an awaited future was cancelled):
+                # not ours to swallow. The task fails with it; joiners re-raise it.
+                outcome = _FAILED
+                self.failure = exc
+        except (KeyboardInterrupt, SystemExit) as exc:
+            outcome = _FAILED
+            self.failure = exc
+            reraise = exc
+        except BaseException as exc:
+            outcome = _FAILED
+            self.failure = exc
+        finally:
+            self._close_aw()
+        if outcome is not _SUCCEEDED:
+            self.result = None
+        if self._children:
+            await self._teardown_children()
+        self._finish(outcome)
+        if reraise is not None:
+            raise reraise
+
+    def _close_aw(self) -> None:
+        aw = self._aw
+        self._aw = None
+        if inspect.iscoroutine(aw):
+            aw.close()
+
+    def _finish(self, outcome: Status) -> None:
+        loop = asyncio.get_running_loop()
+        self.end_time = loop.time()
+        self.waiting_on = None
+        if self._state is _SUSPENDED and outcome is _SUCCEEDED:
+            self._set_state(_RUNNING)
+        self._set_state(outcome)
+        cb = self._on_finish
+        if cb is not None:
+            self._on_finish = None
+            cb(self)
+
+    async def _teardown_children(self) -> None:
+        """Evaporate the children still alive and wait until all are dead."""
+        children = self._children or ()
+        for child in list(children):
+            if child._state not in _DEAD:
+                child.evaporate(f"parent {self.name!r} finished")
+        await wait_dead([c for c in children if c._state not in _DEAD])
+
+    async def _await_constraints(self) -> None:
+        for pred in self._constraints or ():
+            self.waiting_on = f"waiting for {pred.name} to finish (partial order)"
+            while pred._state not in _DEAD:
+                fut = pred._add_waiter()
+                try:
+                    await block_until(fut)
+                finally:
+                    pred._drop_waiter(fut)
+        self.waiting_on = None
+
+    # ---------------------------------------------------------------------- joining
+    async def join(self) -> Any:
+        """Wait until the task is dead; return its result, re-raise its failure (the same
+        object), or return ``None`` if it was evaporated. A CREATED task is not started
+        by joining: it is waited for. Joining the current task raises ``RuntimeError``.
+        """
+        me = CURRENT_TASK.get()
+        if me is self:
+            raise RuntimeError(f"task {self.name!r} cannot join itself")
+        if me is not None:
+            me.waiting_on = f"joining {self.name}"
+        try:
+            while self._state not in _DEAD:
+                fut = self._add_waiter()
+                try:
+                    await block_until(fut)
+                finally:
+                    self._drop_waiter(fut)
+        finally:
+            if me is not None:
+                me.waiting_on = None
+        if self._state is _FAILED:
+            assert self.failure is not None
+            raise self.failure
+        return self.result
+
+    # ------------------------------------------------------------------- evaporation
+    def evaporate(self, reason: str = "evaporated") -> None:
+        """Ask the task to end (CRAM's evaporate). Synchronous: it returns at once; join to
+        wait for the end. A dead task, or a second request, is a no-op. The task's
+        ``finally`` blocks run; its children are evaporated and waited for."""
+        if self._state in _DEAD or self.evaporation is not None:
+            return
+        caller = CURRENT_TASK.get()
+        self.evaporation = Evaporated(reason, caller.path if caller is not None else None)
+        if self._atask is None:
+            if self.kind in _FORM_KINDS:
+                return  # a form node ends with its form
+            # Never started: it dies without running.
+            self._close_aw()
+            self._finish(_EVAPORATED)
+            return
+        self._atask.cancel(reason)
+
+    # -------------------------------------------------------------------- suspension
+    def _subtree(self) -> Generator[Task, None, None]:
+        stack = [self]
+        while stack:
+            node = stack.pop()
+            yield node
+            if node._children:
+                stack.extend(node._children)
+
+    async def suspend(self) -> None:
+        """Suspend the task and its whole subtree; return once every live task of it is
+        suspended. Suspension takes effect at cpl checkpoints (``sleep``, ``wait_for``,
+        ``join``, form boundaries, ``perform``). A dead task returns at once; suspending a
+        suspended task is a no-op (CRAM asserts)."""
+        for node in self._subtree():
+            if node._state not in _DEAD and node.kind not in _FORM_KINDS:
+                if node._state is not _SUSPENDED:
+                    node._suspend_requested = True
+                    blocked = node._blocked_on
+                    if blocked is not None and not blocked.done():
+                        blocked.set_result(None)
+        me = CURRENT_TASK.get()
+        for node in list(self._subtree()):
+            if node is me or node.kind in _FORM_KINDS:
+                continue
+            while node._state is not _SUSPENDED and node._state not in _DEAD:
+                if not node._suspend_requested:
+                    break  # woken meanwhile
+                fut = node._add_waiter()
+                try:
+                    await block_until(fut)
+                finally:
+                    node._drop_waiter(fut)
+        if me is not None and me in set(self._subtree()) and me._suspend_requested:
+            await me._suspend_here()
+
+    def wake_up(self) -> None:
+        """Wake a suspended task and its subtree (a synchronous request). Waking a running
+        task is a no-op; a pending suspension request is withdrawn."""
+        for node in self._subtree():
+            node._suspend_requested = False
+            resume = node._resume
+            if resume is not None and not resume.done():
+                resume.set_result(None)
+
+    async def _suspend_here(self) -> None:
+        """Suspend at a checkpoint: on_suspension handlers (innermost first), then
+        SUSPENDED until woken. Evaporation while suspended raises :class:`Evaporated`
+        (the task goes SUSPENDED -> EVAPORATED)."""
+        for handler in reversed(self._suspension_handlers or ()):
+            res = handler()
+            if inspect.isawaitable(res):
+                await res
+        # Invariant: the request flag stays set until the task is SUSPENDED, so the
+        # suspender can tell "not there yet" from "withdrawn by wake_up".
+        if not self._suspend_requested or self._state is not _RUNNING:
+            self._suspend_requested = False
+            return
+        resume: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._resume = resume
+        self._set_state(_SUSPENDED)
+        self._suspend_requested = False
+        for form in self._active_forms or ():
+            if form._state is _RUNNING:
+                form._set_state(_SUSPENDED)
+        previous, self.waiting_on = self.waiting_on, "suspended"
+        try:
+            await resume
+        except asyncio.CancelledError:
+            if self.evaporation is not None:
+                raise self.evaporation from None
+            raise
+        finally:
+            self._resume = None
+            self.waiting_on = previous
+        self._set_state(_RUNNING)
+        for form in self._active_forms or ():
+            if form._state is _SUSPENDED:
+                form._set_state(_RUNNING)
+
+    def __repr__(self) -> str:
+        return f"<cpl.Task {'/'.join(self.path)} {self._state.name}>"
+
+
+_FORM_KINDS = frozenset({"par", "pursue", "try-all", "par-loop", "partial-order"})
+
+
+async def wait_dead(tasks: list[Task]) -> None:
+    """Wait until every task in ``tasks`` is dead, surviving cancellation: a cancellation
+    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short)."""
+    pending: BaseException | None = None
+    for t in tasks:
+        while t._state not in _DEAD:
+            fut = t._add_waiter()
+            try:
+                await fut
+            except asyncio.CancelledError as exc:
+                pending = pending or exc
+            finally:
+                t._drop_waiter(fut)
+    if pending is not None:
+        raise pending
+
+
+def current_task() -> Task | None:
+    """The cpl task whose code is running, or ``None`` outside any cpl task."""
+    return CURRENT_TASK.get()
+
+
+def _require_task(what: str) -> Task:
+    task = CURRENT_TASK.get()
+    if task is None:
+        raise RuntimeError(
+            f"{what} must run inside a cpl task: wrap your plan in cpl.run(...) or "
+            "await cpl.top_level(...)"
+        )
+    return task
+
+
+def spawn(
+    aw: Awaitable[Any] | Callable[[], Awaitable[Any]],
+    name: str | None = None,
+    *,
+    kind: str = "task",
+) -> Task:
+    """Start ``aw`` as a child task of the current task and return it at once.
+
+    The child is evaporated if it is still running when its parent finishes. Join it to
+    get its value or failure.
+    """
+    parent = _require_task("cpl.spawn")
+    return Task(aw, name, kind=kind, parent=parent).start()
+
+
+async def with_task(
+    aw: Awaitable[Any] | Callable[[], Awaitable[Any]],
+    *,
+    name: str | None = None,
+    kind: str = "task",
+    arguments: dict[str, Any] | None = None,
+    annotations: dict[str, Any] | None = None,
+) -> Any:
+    """Run ``aw`` as a named child task and join it (CRAM's ``with-task``).
+
+    Returns the value or re-raises the failure. If the caller is evaporated meanwhile, the
+    child is evaporated and waited for before the evaporation propagates.
+    """
+    parent = _require_task("cpl.with_task")
+    child = Task(
+        aw, name, kind=kind, arguments=arguments, annotations=annotations, parent=parent
+    ).start()
+    return await join_owned(child)
+
+
+async def join_owned(child: Task) -> Any:
+    """Join a child this code owns: on cancellation evaporate it and wait for it first."""
+    try:
+        return await child.join()
+    except asyncio.CancelledError:
+        if child._state not in _DEAD:
+            child.evaporate("the joining task was evaporated")
+            await wait_dead([child])
+        raise
+
+
+def _name_of(aw: Any) -> str:
+    if aw is None:
+        return "task"
+    code = getattr(aw, "cr_code", None)
+    if code is not None:
+        return str(code.co_name)
+    name = getattr(aw, "__name__", None)
+    if isinstance(name, str):
+        return name
+    return type(aw).__name__
+
+
+def as_coroutine(aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> Coroutine[Any, Any, Any]:
+    """Turn a coroutine, awaitable or zero-argument async callable into a coroutine."""
+    if inspect.iscoroutine(aw):
+        return aw
+    if inspect.isawaitable(aw):
+        return _await(aw)
+    if callable(aw):
+        res = aw()
+        if inspect.iscoroutine(res):
+            return res
+        if inspect.isawaitable(res):
+            return _await(res)
+        raise TypeError(
+            f"{_name_of(aw)!r} returned {type(res).__name__}, not an awaitable; forms take "
+            "coroutines or zero-argument async functions"
+        )
+    raise TypeError(
+        f"forms take coroutines or zero-argument async functions, got {type(aw).__name__}"
+    )
+
+
+async def _await(aw: Awaitable[Any]) -> Any:
+    return await aw
+
+
+def set_run(task: Task, run: Any) -> None:
+    task._run = run
+
+
+InstrumentSet  # re-exported for type users of Task._run
