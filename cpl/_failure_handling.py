@@ -40,9 +40,7 @@ __all__ = [
 
 ExcTypes: TypeAlias = type[BaseException] | tuple[type[BaseException], ...]
 Handler: TypeAlias = Callable[[Any], Any]
-Handlers: TypeAlias = (
-    Mapping[ExcTypes, Handler] | Iterable[tuple[ExcTypes, Handler]]
-)
+Handlers: TypeAlias = Mapping[ExcTypes, Handler] | Iterable[tuple[ExcTypes, Handler]]
 
 
 class _Retry(BaseException):

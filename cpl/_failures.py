@@ -86,7 +86,9 @@ class Evaporated(asyncio.CancelledError):
         return f"evaporated by {who}: {self.reason}"
 
 
-def fail(failure: BaseException | type[PlanFailure] | str | None = None, **details: Any) -> NoReturn:
+def fail(
+    failure: BaseException | type[PlanFailure] | str | None = None, **details: Any
+) -> NoReturn:
     """Raise a plan failure (CRAM's ``fail``).
 
     - ``fail()`` raises ``PlanFailure("Plan failure.")``;

@@ -20,7 +20,7 @@ from collections.abc import AsyncIterator, Callable, Sequence
 from threading import get_ident
 from typing import Any, Generic, Literal, TypeVar
 
-from ._scheduling import block_until
+from ._scheduling import CURRENT_TASK, block_until
 
 __all__ = [
     "Fluent",
@@ -151,6 +151,13 @@ class Fluent(Generic[T]):
 
     def _pulse(self) -> None:
         self.pulse_count += 1
+        task = CURRENT_TASK.get()
+        if task is not None and task._run is not None:
+            hooks = task._run.instruments.fluent_changed
+            if hooks:
+                value = self.peek_value()
+                for hook in hooks:
+                    hook(self, value)
         waiters = self._waiters
         if waiters:
             self._waiters = None
@@ -653,21 +660,30 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
         if timeout != timeout:
             raise ValueError("wait_for timeout is NaN; pass seconds >= 0 or None")
         deadline = asyncio.get_running_loop().time() + timeout
-    while True:
-        value = fluent.value
-        if value:
-            return value
-        fut = fluent._waiter()
-        try:
-            woken = await block_until(fut, deadline)
-        finally:
-            fluent._remove_waiter(fut)
-        if not woken:
-            if fut.done():  # pulsed just before the deadline: one last check
-                value = fluent.value
-                if value:
-                    return value
-            return None
+    value = fluent.value
+    if value:
+        return value
+    task = CURRENT_TASK.get()
+    if task is not None:
+        task.waiting_on = f"waiting for {fluent.name}"
+    try:
+        while True:
+            fut = fluent._waiter()
+            try:
+                woken = await block_until(fut, deadline)
+            finally:
+                fluent._remove_waiter(fut)
+            if not woken and not fut.done():
+                return None
+            # Woken, or the deadline's timer resolved ``fut``: (one last) check.
+            value = fluent.value
+            if value:
+                return value
+            if not woken:
+                return None
+    finally:
+        if task is not None:
+            task.waiting_on = None
 
 
 def _resolve(fut: asyncio.Future[None]) -> None:

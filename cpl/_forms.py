@@ -191,7 +191,9 @@ class _Supervisor:
                 self._fail(task.failure)
             elif self.alive == 0:
                 self.decided = True
-                self.value = [b.result if b.state is Status.SUCCEEDED else None for b in self.branches]
+                self.value = [
+                    b.result if b.state is Status.SUCCEEDED else None for b in self.branches
+                ]
         elif kind == "pursue":
             if state is Status.SUCCEEDED:
                 self.decided, self.value = True, task.result
@@ -216,17 +218,27 @@ class _Supervisor:
 
 
 async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) -> Any:
-    owner = _require_task(f"cpl.{kind.replace('-', '_')}")
+    try:
+        owner = _require_task(f"cpl.{kind.replace('-', '_')}")
+    except RuntimeError:
+        for b in branches:
+            _close(b)
+        raise
     node = Task(None, kind, kind=kind, parent=owner)
     loop = asyncio.get_running_loop()
     node.start_time = loop.time()
     node._set_state(Status.RUNNING)
+    tasks: list[Task] = []
     try:
-        tasks = [_branch_task(b, node, f"{kind}-{i + 1}") for i, b in enumerate(branches)]
-    except BaseException:
-        for b in branches:
+        for i, b in enumerate(branches):
+            tasks.append(_branch_task(b, node, f"{kind}-{i + 1}"))
+    except BaseException as exc:
+        for t in tasks:
+            t.evaporate(f"{kind} was given an invalid branch")
+        for b in branches[len(tasks) :]:
             _close(b)
         node.end_time = loop.time()
+        node.failure = exc
         node._set_state(Status.FAILED)
         raise
     sup = _Supervisor(kind, tasks)
@@ -274,11 +286,12 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
 
 
 async def _end_branches(tasks: list[Task], sup: _Supervisor, reason: str) -> None:
-    """Evaporate the branches still alive and wait until all are dead; a cancellation that
-    arrives meanwhile is re-raised afterwards."""
+    """Evaporate the branches still alive (on behalf of the form node) and wait until all
+    are dead; a cancellation that arrives meanwhile is re-raised afterwards."""
+    by = tasks[0].parent.path if tasks and tasks[0].parent is not None else None
     for t in tasks:
         if t.state not in _DEAD:
-            t.evaporate(reason)
+            t.evaporate(reason, by=by)
     pending: BaseException | None = None
     loop = asyncio.get_running_loop()
     while sup.alive > 0:

@@ -50,6 +50,12 @@ class InstrumentSet:
 
     __slots__ = ("_instruments", *HOOKS)
 
+    run_started: tuple[Callable[..., None], ...]
+    run_finished: tuple[Callable[..., None], ...]
+    task_spawned: tuple[Callable[..., None], ...]
+    task_status_changed: tuple[Callable[..., None], ...]
+    fluent_changed: tuple[Callable[..., None], ...]
+
     def __init__(self, instruments: Iterable[Instrument] = ()) -> None:
         self._instruments: list[Instrument] = []
         for hook in HOOKS:

@@ -174,6 +174,4 @@ def run(
         return loop
 
     with asyncio.Runner(debug=debug, loop_factory=factory) as runner:
-        return runner.run(
-            top_level(fn, *args, name=name, instruments=instruments, history=history)
-        )
+        return runner.run(top_level(fn, *args, name=name, instruments=instruments, history=history))

@@ -60,8 +60,12 @@ async def block_until(fut: asyncio.Future[Any], deadline: float | None = None) -
     try:
         await fut
     except asyncio.CancelledError:
-        if task is not None and task._evaporation is not None:
-            raise task._evaporation from None
+        if (
+            task is not None
+            and task.evaporation is not None
+            and asyncio.current_task() is task._atask
+        ):
+            raise task.evaporation from None
         raise
     finally:
         if timer is not None:

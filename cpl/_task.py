@@ -31,7 +31,6 @@ from collections.abc import Awaitable, Callable, Coroutine, Generator
 from typing import Any
 
 from ._failures import Evaporated
-from ._instruments import InstrumentSet
 from ._scheduling import CURRENT_TASK, block_until
 from ._status import LEGAL_TRANSITIONS, Status
 
@@ -171,6 +170,18 @@ class Task:
     def children(self) -> list[Task]:
         """The child tasks in creation order (a copy)."""
         return list(self._children) if self._children else []
+
+    @property
+    def path_entry(self) -> str:
+        """This task's entry in its path: its name, or ``name#n`` for the n-th call at the
+        same place."""
+        return self._entry
+
+    def snapshot(self, *, max_nodes: int | None = None, collapse_finished: bool = False) -> Any:
+        """An immutable :class:`~cpl.TaskNode` of this task and its subtree, now."""
+        from ._tree import snapshot
+
+        return snapshot(self, max_nodes=max_nodes, collapse_finished=collapse_finished)
 
     @property
     def path(self) -> tuple[str, ...]:
@@ -346,9 +357,10 @@ class Task:
     async def _teardown_children(self) -> None:
         """Evaporate the children still alive and wait until all are dead."""
         children = self._children or ()
+        me = self.path
         for child in list(children):
             if child._state not in _DEAD:
-                child.evaporate(f"parent {self.name!r} finished")
+                child.evaporate(f"parent {self.name!r} finished", by=me)
         await wait_dead([c for c in children if c._state not in _DEAD])
 
     async def _await_constraints(self) -> None:
@@ -389,20 +401,27 @@ class Task:
         return self.result
 
     # ------------------------------------------------------------------- evaporation
-    def evaporate(self, reason: str = "evaporated") -> None:
+    def evaporate(self, reason: str = "evaporated", *, by: tuple[str, ...] | None = None) -> None:
         """Ask the task to end (CRAM's evaporate). Synchronous: it returns at once; join to
         wait for the end. A dead task, or a second request, is a no-op. The task's
-        ``finally`` blocks run; its children are evaporated and waited for."""
+        ``finally`` blocks run; its children are evaporated and waited for. ``by`` names who
+        asked (default: the path of the calling task)."""
         if self._state in _DEAD or self.evaporation is not None:
             return
-        caller = CURRENT_TASK.get()
-        self.evaporation = Evaporated(reason, caller.path if caller is not None else None)
+        if by is None:
+            caller = CURRENT_TASK.get()
+            by = caller.path if caller is not None else None
+        self.evaporation = Evaporated(reason, by)
         if self._atask is None:
             if self.kind in _FORM_KINDS:
                 return  # a form node ends with its form
             # Never started: it dies without running.
             self._close_aw()
             self._finish(_EVAPORATED)
+            return
+        if self._state is _CREATED:
+            # Scheduled but not entered yet: cancelling now would kill the coroutine before
+            # _main could record the end. _main sees the request on entry instead.
             return
         self._atask.cancel(reason)
 
@@ -606,10 +625,3 @@ def as_coroutine(aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> Coroutine
 
 async def _await(aw: Awaitable[Any]) -> Any:
     return await aw
-
-
-def set_run(task: Task, run: Any) -> None:
-    task._run = run
-
-
-InstrumentSet  # re-exported for type users of Task._run

@@ -62,6 +62,7 @@ class Transform:
     rotation: tuple[float, float, float, float]
     frame: str
     child_frame: str
+    _rotation: Rotation | None
 
     def __init__(
         self,
@@ -101,7 +102,7 @@ class Transform:
         if m.shape != (4, 4):
             raise ValueError(f"a homogeneous transform is 4x4, got shape {m.shape}")
         quat = Rotation.from_matrix(m[:3, :3]).as_quat()
-        return cls(m[:3, 3], quat, frame, child_frame)
+        return cls(tuple(float(v) for v in m[:3, 3]), quat, frame, child_frame)
 
     def to_pose(self) -> Pose:
         """The pose of ``child_frame`` expressed in ``frame``."""
@@ -170,6 +171,7 @@ class Pose:
     position: tuple[float, float, float]
     orientation: tuple[float, float, float, float]
     frame: str
+    _rotation: Rotation | None
 
     def __init__(
         self,

@@ -46,6 +46,7 @@ __all__ = [
     "NavigationLowLevelFailure",
     "NavigationPoseUnreachable",
     "NoProcessModule",
+    "NoWorldModel",
     "ObjectNowhereToBeFound",
     "ObjectUndeliverable",
     "ObjectUnfetchable",
@@ -53,6 +54,7 @@ __all__ = [
     "PerceptionLowLevelFailure",
     "PerceptionObjectNotFound",
     "PerceptionObjectNotInWorld",
+    "ProcessModuleGoalEvaporated",
     "PtuGoalNotReached",
     "PtuGoalUnreachable",
     "PtuLowLevelFailure",
@@ -334,6 +336,27 @@ class NoProcessModule(PlanFailure):
     cram_name = "no-process-module"
     default_message = "No running process module accepts this motion."
     motion = _field("motion")
+
+
+class ProcessModuleGoalEvaporated(PlanFailure):
+    """A process-module goal was evaporated while its caller went on (someone evaporated
+    the goal's task, or the ``with_process_modules`` block that ran the module was left).
+    Not in CRAM, where the caller would just see the motion end; we make it a plan failure so
+    the plan does not mistake a stopped motion for a finished one. Fields: ``motion``,
+    ``module``."""
+
+    cram_name = "process-module-goal-evaporated"
+    default_message = "The process-module goal was evaporated before it finished."
+    motion = _field("motion")
+    module = _field("module")
+
+
+class NoWorldModel(LookupError):
+    """The current environment has no world model (plans asked for an object pose or the
+    robot pose outside ``executive.environment(world=...)``). A programming error, not a
+    plan failure."""
+
+    cram_name = "no-world-model"
 
 
 def cram_name_of(failure: BaseException | type[BaseException]) -> str:

@@ -1,0 +1,124 @@
+"""The ``aiocram`` command line.
+
+Subcommands:
+
+- ``aiocram show LOG [--ascii] [--max-nodes N] [--run I] [--collapse]``: draw the task
+  tree of a run recorded by :class:`cpl._eventlog.EventLog`.
+
+Adding a subcommand (``demo``, ``bench``, ``campaign``, ...): write a function
+``_add_<name>(subparsers)`` that adds its parser and sets ``handler=`` (a function taking
+the parsed namespace and returning the exit code), and list it in :data:`_SUBCOMMANDS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+from importlib import metadata
+from typing import Any
+
+__all__ = ["build_parser", "main"]
+
+_Subparsers = Any  # argparse's _SubParsersAction is private
+
+
+def _version() -> str:
+    try:
+        return metadata.version("aiocram")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+# --------------------------------------------------------------------------- show
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _add_show(subparsers: _Subparsers) -> None:
+    p = subparsers.add_parser(
+        "show",
+        help="draw the task tree of a recorded run",
+        description="Draw the final task tree of a run recorded as a JSON-lines event log.",
+    )
+    p.add_argument("log", metavar="LOG", help="event log file written by cpl's EventLog")
+    p.add_argument("--ascii", action="store_true", help="ASCII glyphs and tree guides only")
+    p.add_argument(
+        "--max-nodes", type=_positive, default=None, metavar="N", help="draw at most N tasks"
+    )
+    p.add_argument(
+        "--run",
+        type=int,
+        default=-1,
+        metavar="I",
+        help="which run of the file to show (0 = first, -1 = last; default: last)",
+    )
+    p.add_argument(
+        "--collapse",
+        action="store_true",
+        help="fold subtrees that finished without failing into one line",
+    )
+    p.set_defaults(handler=_run_show)
+
+
+def _run_show(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from cpl._eventlog import tree_from_log
+    from cpl.display import render, render_text
+
+    try:
+        tree = tree_from_log(args.log, run=args.run)
+    except FileNotFoundError:
+        print(f"aiocram show: error: no such file: {args.log}", file=sys.stderr)
+        return 2
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        print(f"aiocram show: error: cannot read {args.log}: {exc}", file=sys.stderr)
+        return 2
+    console = Console(highlight=False)
+    if args.ascii:
+        text = render_text(
+            tree,
+            ascii=True,
+            width=console.width,
+            max_nodes=args.max_nodes,
+            collapse_finished=args.collapse,
+        )
+        sys.stdout.write(text)
+    else:
+        console.print(render(tree, max_nodes=args.max_nodes, collapse_finished=args.collapse))
+    return 0
+
+
+# --------------------------------------------------------------------------- main
+
+_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_show,)
+"""Registrars of the subcommands, in help order."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every registered subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="aiocram", description="aiocram: CRAM's plan language and executive on asyncio."
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for add in _SUBCOMMANDS:
+        add(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``aiocram`` command; returns the exit code."""
+    args = build_parser().parse_args(argv)
+    handler: Callable[[argparse.Namespace], int] = args.handler
+    return handler(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""Projection world costs beside raw-PyBullet baselines measured in the same run.
+
+``python bench/projection_ops.py [--reps N]``: medians (µs) of ``time.perf_counter_ns``
+over many repetitions, and each figure's ratio to its baseline.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections.abc import Callable
+
+import pybullet as pb
+
+from executive import knowledge
+from executive._pose import Pose
+from projection import World
+
+
+def median_us(fn: Callable[[], object], reps: int) -> float:
+    for _ in range(min(20, reps)):
+        fn()
+    samples = []
+    for _ in range(reps):
+        t0 = time.perf_counter_ns()
+        fn()
+        samples.append(time.perf_counter_ns() - t0)
+    samples.sort()
+    return samples[len(samples) // 2] / 1000.0
+
+
+def row(name: str, ours: float, base_name: str, base: float, target: str) -> None:
+    print(f"{name:<34} {ours:>10.1f} µs | {base_name:<40} {base:>10.1f} µs | "
+          f"ratio {ours / base:6.2f}x  ({target})")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--reps", type=int, default=2000)
+    reps = parser.parse_args().reps
+    with World(seed=0) as w:
+        c, robot = w.client, w.robot_body
+        for name, t, xyz, yaw in [
+            ("cereal", "breakfast-cereal", (1.4, 0.4, 0.996), 0.0),
+            ("cup", "cup", (1.3, 0.6, 0.901), 0.0),
+            ("bowl", "bowl", (1.4, 0.8, 0.8785), 0.0),
+            ("milk", "milk", (1.4, 0.62, 0.951), math.pi),
+        ]:
+            w.spawn_object(name, t, Pose.from_xyz_yaw(*xyz, yaw))
+        a = Pose.from_xyz_yaw(0.75, 0.7, 0.0, 0.0)
+        b = Pose.from_xyz_yaw(0.70, 0.65, 0.0, 0.1)
+        flip = [a, b]
+
+        def drive() -> None:
+            flip.reverse()
+            w.drive(flip[0])
+
+        def raw_probe() -> None:
+            flip.reverse()
+            pos = flip[0].position
+            pb.resetBasePositionAndOrientation(robot, (pos[0], pos[1], 0.0),
+                                               flip[0].orientation, physicsClientId=c)
+            pb.performCollisionDetection(physicsClientId=c)
+            pb.getContactPoints(bodyA=robot, physicsClientId=c)
+
+        row("drive + collision check", median_us(drive, reps),
+            "reset + collision detection + contacts", median_us(raw_probe, reps), "target ≤ 2x")
+        w.drive(a)
+
+        # IK: one verified solve (current torso) vs one raw calculateInverseKinematics
+        obj = w.object_pose("cup", "base_footprint").to_transform("cup")
+        goal = knowledge.grasp_poses("cup", "back", obj)[2]
+        goal_map = w.robot_pose().to_transform("base_footprint") * goal
+        park = knowledge.arm_configuration("park", "right")
+
+        def ik() -> None:
+            w.move_joints(right=park)
+            w.move_tcp(right=goal)
+
+        def raw_ik() -> None:
+            w.move_joints(right=park)
+            pb.calculateInverseKinematics(robot, w._tool["right"], goal_map.position,
+                                          goal_map.orientation, maxNumIterations=100,
+                                          residualThreshold=1e-4, physicsClientId=c)
+
+        n = max(50, reps // 10)
+        row("move_tcp (verified IK)", median_us(ik, n), "calculateInverseKinematics 100 it",
+            median_us(raw_ik, n), "target ≤ 3x")
+        w.park_arms()
+
+        # detect vs one ray batch and vs one 320x200 segmentation render
+        w.look_at(Pose((1.3, 0.6, 0.9)))
+        desig = {"type": "cup"}
+        cam = w.link_pose("head_mount_kinect_rgb_optical_frame")
+        z = cam.as_rotation().apply([0.0, 0.0, 1.0])
+        y = cam.as_rotation().apply([0.0, -1.0, 0.0])
+        target = [cam.position[i] + z[i] for i in range(3)]
+        view = pb.computeViewMatrix(cam.position, target, y)
+        proj = pb.computeProjectionMatrixFOV(50.0, 320 / 200, 0.1, 10.0)
+        lo, hi = w.object_aabb("cup")
+        starts = [cam.position] * 27
+        ends = [(lo[0] + (hi[0] - lo[0]) * i / 2, lo[1] + (hi[1] - lo[1]) * j / 2,
+                 lo[2] + (hi[2] - lo[2]) * k / 2) for i in range(3) for j in range(3)
+                for k in range(3)]
+        det = median_us(lambda: w.detect(desig), reps // 4)
+        rays = median_us(lambda: pb.rayTestBatch(starts, ends, physicsClientId=c), reps // 4)
+        cam_us = median_us(lambda: pb.getCameraImage(
+            320, 200, view, proj, flags=pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX,
+            renderer=pb.ER_TINY_RENDERER, physicsClientId=c), 20)
+        row("detect (27 rays)", det, "rayTestBatch 27 rays", rays, "absolute < 20 ms")
+        row("detect (27 rays)", det, "getCameraImage 320x200 segmentation", cam_us,
+            "CRAM renders twice")
+
+        # snapshot / restore vs saveState / restoreState
+        snap = w.snapshot()
+        state = pb.saveState(physicsClientId=c)
+        row("snapshot()", median_us(w.snapshot, reps), "saveState",
+            median_us(lambda: pb.removeState(pb.saveState(physicsClientId=c),
+                                             physicsClientId=c), max(20, reps // 20)),
+            "manual vs PyBullet")
+        row("restore(snap)", median_us(lambda: w.restore(snap), reps), "restoreState",
+            median_us(lambda: pb.restoreState(state, physicsClientId=c), reps),
+            "manual vs PyBullet")
+        row("placing_pose_stable (side world)",
+            median_us(lambda: w.placing_pose_stable("cup", Pose((-0.8, 1.3, 0.905))), 20),
+            "600 x stepSimulation (main world)",
+            median_us(lambda: [pb.stepSimulation(physicsClientId=c) for _ in range(1)], 200)
+            * 600, "early stop at rest")
+
+
+if __name__ == "__main__":
+    main()

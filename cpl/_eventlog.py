@@ -1,0 +1,379 @@
+"""A JSON-lines event log of runs, and rebuilding task trees from it.
+
+:class:`EventLog` is an instrument: pass it to ``cpl.run(fn, instruments=[EventLog(p)])``
+and every task creation and status change of the run becomes one JSON object per line::
+
+    {"schema": "aiocram.events/1", "event": "task-started", "t": 0.25,
+     "path": ["demo", "fetching"], "parent": ["demo"], "name": "fetching", ...}
+
+Events: ``run-started`` (the top-level task), ``task-started`` (a task was created; it
+is CREATED and may start later), ``task-status`` (RUNNING or SUSPENDED), ``task-finished``
+(a dead status, with result, failure or evaporation), ``fluent-changed`` (only with
+``fluents=True``) and ``run-finished`` (the top level and its subtree are dead). ``t`` is
+the event loop's clock. Values are the short strings of :mod:`cpl._tree`'s snapshots, so
+:func:`tree_from_log` rebuilds exactly the tree :func:`cpl._tree.snapshot` would give at
+the end of the run (except ``waiting_on``, which is not logged).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import time
+import weakref
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
+
+from ._instruments import Instrument
+from ._status import Status
+from ._tree import TaskLike, TaskNode, _node_from_record, jsonable, path_entry, task_fields
+
+if TYPE_CHECKING:
+    from ._fluents import Fluent
+    from ._task import Task
+
+__all__ = ["EVENT_SCHEMA", "EventLog", "load_events", "tree_from_log"]
+
+EVENT_SCHEMA = "aiocram.events/1"
+"""Version tag written in every event line."""
+
+_JSON_SEPARATORS = (",", ":")
+
+
+def _now() -> float:
+    try:
+        return asyncio.get_running_loop().time()
+    except RuntimeError:
+        return time.monotonic()
+
+
+def _record_json(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """The JSON form of :func:`cpl._tree.task_fields` output (without the name/kind)."""
+    failure = fields["failure"]
+    by = fields["evaporated_by"]
+    full = {
+        "status": fields["status"].value,
+        "start_time": fields["start_time"],
+        "end_time": fields["end_time"],
+        "result": fields["result"],
+        "failure": failure.to_dict() if failure is not None else None,
+        "evaporated_by": list(by) if by is not None else None,
+        "reason": fields["evaporation_reason"],
+        "annotations": fields["annotations"],
+    }
+    # Unset fields are left out: a reader keeps a task's last reported value per field.
+    return {k: v for k, v in full.items() if v is not None and v != {}}
+
+
+class EventLog(Instrument):
+    """Instrument that writes a run's events as JSON lines.
+
+    ``target`` is a path (the file is opened in append mode for each run and closed when
+    the run finishes, so one file can hold many runs), a text stream (written and
+    flushed, never closed) or a :class:`logging.Logger` (one record per event, at
+    ``level``). ``fluents=True`` also logs every fluent change.
+    """
+
+    def __init__(
+        self,
+        target: str | os.PathLike[str] | IO[str] | logging.Logger,
+        *,
+        fluents: bool = False,
+        level: int = logging.INFO,
+    ) -> None:
+        self._target = target
+        self._fluents = fluents
+        self._level = level
+        self._file: IO[str] | None = None
+        # Where each live task was last reported: detects re-parenting and spares
+        # walking up the tree for each status change.
+        self._paths: weakref.WeakKeyDictionary[Any, tuple[str, ...]] = weakref.WeakKeyDictionary()
+
+    def __repr__(self) -> str:
+        return f"EventLog({self._target!r}, fluents={self._fluents})"
+
+    # ------------------------------------------------------------------ output
+
+    def _emit(self, event: dict[str, Any]) -> None:
+        line = json.dumps(
+            {"schema": EVENT_SCHEMA, **event}, separators=_JSON_SEPARATORS, default=str
+        )
+        target = self._target
+        if isinstance(target, logging.Logger):
+            target.log(self._level, "%s", line)
+            return
+        if isinstance(target, str | os.PathLike):
+            if self._file is None:
+                self._file = open(target, "a", encoding="utf-8", buffering=1)
+            self._file.write(line + "\n")
+            return
+        target.write(line + "\n")
+
+    def flush(self) -> None:
+        """Push buffered lines out."""
+        if self._file is not None:
+            self._file.flush()
+        elif not isinstance(self._target, str | os.PathLike | logging.Logger):
+            self._target.flush()
+
+    def close(self) -> None:
+        """Close the file this log opened (streams and loggers are left alone)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> EventLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ hooks
+
+    def _known(self, task: TaskLike) -> tuple[str, ...] | None:
+        try:
+            return self._paths.get(task)
+        except TypeError:  # not weak-referenceable
+            return None
+
+    def _path(self, task: TaskLike) -> tuple[str, ...]:
+        known = self._known(task)
+        return known if known is not None else tuple(task.path)
+
+    def _remember(self, task: TaskLike, path: tuple[str, ...]) -> None:
+        try:
+            self._paths[task] = path
+        except TypeError:
+            pass
+
+    def run_started(self, root: Task) -> None:
+        path = tuple(root.path)
+        self._remember(root, path)
+        fields = task_fields(root, path)
+        self._emit(
+            {
+                "event": "run-started",
+                "t": _now(),
+                "path": list(path),
+                "parent": None,
+                "name": fields["name"],
+                "kind": fields["kind"],
+                **({"arguments": fields["arguments"]} if fields["arguments"] else {}),
+                **_record_json(fields),
+            }
+        )
+
+    def task_spawned(self, task: Task) -> None:
+        parent = task.parent
+        old = self._known(task)
+        if parent is not None:
+            parent_path = self._path(parent)
+            path = (*parent_path, path_entry(task))
+        else:
+            parent_path = None
+            path = tuple(task.path)
+        self._remember(task, path)
+        fields = task_fields(task, path)
+        event: dict[str, Any] = {
+            "event": "task-started",
+            "t": _now(),
+            "path": list(path),
+            "parent": list(parent_path) if parent_path is not None else None,
+            "name": fields["name"],
+            "kind": fields["kind"],
+            **({"arguments": fields["arguments"]} if fields["arguments"] else {}),
+            **_record_json(fields),
+        }
+        if old is not None and old != path:
+            event["moved_from"] = list(old)
+        self._emit(event)
+
+    def task_status_changed(self, task: Task, old: Status, new: Status) -> None:
+        path = self._path(task)
+        if new.dead:
+            fields = task_fields(task, path)
+            self._emit(
+                {"event": "task-finished", "t": _now(), "path": list(path), **_record_json(fields)}
+            )
+        else:
+            self._emit(
+                {
+                    "event": "task-status",
+                    "t": _now(),
+                    "path": list(path),
+                    "status": new.value,
+                    "old": old.value,
+                    "start_time": task.start_time,
+                }
+            )
+
+    def fluent_changed(self, fluent: Fluent[Any], value: Any) -> None:
+        if not self._fluents:
+            return
+        self._emit(
+            {
+                "event": "fluent-changed",
+                "t": _now(),
+                "fluent": str(getattr(fluent, "name", "fluent")),
+                "value": jsonable(value),
+            }
+        )
+
+    def run_finished(self, root: Task) -> None:
+        path = self._path(root)
+        try:
+            self._emit(
+                {
+                    "event": "run-finished",
+                    "t": _now(),
+                    "path": list(path),
+                    **_record_json(task_fields(root, path)),
+                }
+            )
+            self.flush()
+        finally:
+            self.close()
+            self._paths.clear()
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _check_schema(event: Mapping[str, Any], where: str) -> None:
+    schema = event.get("schema")
+    if schema != EVENT_SCHEMA:
+        raise ValueError(
+            f"{where}: unsupported event schema {schema!r}; this aiocram reads {EVENT_SCHEMA!r}"
+        )
+
+
+def load_events(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """The events of a log file, in order.
+
+    Lines written through a logger may carry a prefix from the handler's format: the JSON
+    object is taken from the first ``{``. Blank lines and lines without a JSON object are
+    skipped; a JSON object with a foreign ``schema`` raises ``ValueError`` naming it.
+    """
+    events: list[dict[str, Any]] = []
+    with open(path, encoding="utf-8") as f:
+        for lineno, line in enumerate(f, 1):
+            start = line.find("{")
+            if start < 0:
+                continue
+            where = f"{os.fspath(path)}:{lineno}"
+            try:
+                event = json.loads(line[start:])
+            except json.JSONDecodeError as exc:
+                if start == 0:
+                    raise ValueError(f"{where}: not a JSON event line: {exc}") from exc
+                continue
+            if not isinstance(event, dict):
+                continue
+            _check_schema(event, where)
+            events.append(event)
+    return events
+
+
+_STATE_KEYS = (
+    "status",
+    "start_time",
+    "end_time",
+    "result",
+    "failure",
+    "evaporated_by",
+    "annotations",
+)
+
+
+def tree_from_log(
+    source: str | os.PathLike[str] | Iterable[Mapping[str, Any]], *, run: int = -1
+) -> TaskNode:
+    """Rebuild the task tree of one run (the last by default) from its events.
+
+    ``source`` is a log file or the events themselves. The tree shows each task as last
+    reported, so the log of an interrupted run gives the tree at the interruption.
+    """
+    events: list[Mapping[str, Any]]
+    if isinstance(source, str | os.PathLike):
+        events = list(load_events(Path(source)))
+    else:
+        events = list(source)
+        for i, ev in enumerate(events):
+            _check_schema(ev, f"event {i}")
+    starts = [i for i, ev in enumerate(events) if ev.get("event") == "run-started"]
+    if not starts:
+        raise ValueError("the event log holds no run (no 'run-started' event)")
+    try:
+        first = starts[run]
+    except IndexError:
+        raise ValueError(
+            f"run index {run} out of range: the log holds {len(starts)} run(s)"
+        ) from None
+    following = [i for i in starts if i > first]
+    end = following[0] if following else len(events)
+
+    records: dict[tuple[str, ...], dict[str, Any]] = {}
+    children: dict[tuple[str, ...], list[tuple[str, ...]]] = {}
+    root_path: tuple[str, ...] | None = None
+    for ev in events[first:end]:
+        kind = ev.get("event")
+        if kind not in (
+            "run-started",
+            "task-started",
+            "task-status",
+            "task-finished",
+            "run-finished",
+        ):
+            continue
+        path = tuple(ev["path"])
+        if kind in ("run-started", "task-started"):
+            moved = ev.get("moved_from")
+            if moved is not None:
+                moved_path = tuple(moved)
+                old = records.pop(moved_path, None)
+                if old is not None and old["parent"] is not None:
+                    children[old["parent"]].remove(moved_path)
+                children.pop(moved_path, None)
+            parent = tuple(ev["parent"]) if ev.get("parent") is not None else None
+            if kind == "run-started":
+                root_path = path
+                parent = None
+            elif parent is None or parent not in records:
+                raise ValueError(
+                    f"event log is inconsistent: task {'/'.join(path)!r} started under "
+                    f"unknown parent {parent!r}"
+                )
+            if path not in records:
+                records[path] = {"path": path, "parent": parent}
+                children[path] = []
+                if parent is not None:
+                    children[parent].append(path)
+            record = records[path]
+            record["name"] = ev.get("name", path[-1] if path else "")
+            record["kind"] = ev.get("kind", "task")
+            record["arguments"] = ev.get("arguments") or {}
+        elif path not in records:
+            raise ValueError(f"event log is inconsistent: {kind} for unknown task {path!r}")
+        record = records[path]
+        for key in _STATE_KEYS:
+            if key in ev:
+                record[key] = ev[key]
+        if "reason" in ev:
+            record["evaporation_reason"] = ev["reason"]
+    assert root_path is not None
+
+    # Rebuild bottom-up without recursion: reverse pre-order puts children first.
+    order: list[tuple[str, ...]] = []
+    stack = [root_path]
+    while stack:
+        p = stack.pop()
+        order.append(p)
+        stack.extend(reversed(children[p]))
+    built: dict[tuple[str, ...], TaskNode] = {}
+    for p in reversed(order):
+        kids = tuple(built.pop(c) for c in children[p])
+        built[p] = _node_from_record(records[p], kids)
+    return built[root_path]

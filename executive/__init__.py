@@ -1,0 +1,96 @@
+"""executive: designators, their resolution, ``perform``, process modules, environments,
+events and CRAM's common failures (CRAM's ``cram_executive``, ``cram_designators``,
+``cram_process_modules``, ``cram_common_failures``).
+
+Everything public is importable from here; the modules behind it are private except
+``executive.events``, ``executive.retry``, ``executive.testing`` and ``executive.failures``.
+"""
+
+from . import _location, _motions, events
+from ._designator import (
+    ActionDesignator,
+    Designator,
+    LocationDesignator,
+    MotionDesignator,
+    ObjectDesignator,
+    a,
+    an,
+    cram_key,
+    equate,
+)
+from ._environment import (
+    Environment,
+    WorldModel,
+    current_environment,
+    environment,
+    with_process_modules,
+)
+from ._location import Validation
+from ._perform import perform
+from ._pose import Pose, Transform, yaw_quaternion
+from ._process_module import PMStatus, ProcessModule, pm_execute
+from ._rules import (
+    RuleSet,
+    builtin_rules,
+    register_location_generator,
+    register_location_validator,
+    register_rule,
+    rule,
+    static_rules,
+)
+from ._solutions import ActionGrounding, MotionCommand, ObjectData
+from .events import emit, subscribe
+from .failures import *  # noqa: F403
+from .failures import __all__ as _failure_names
+from .retry import (
+    ListCursor,
+    SolutionCursor,
+    retry_with_designator_solutions,
+    retry_with_list_solutions,
+)
+
+builtin_rules.freeze()
+del _location, _motions
+
+__all__ = [
+    "ActionDesignator",
+    "ActionGrounding",
+    "Designator",
+    "Environment",
+    "ListCursor",
+    "LocationDesignator",
+    "MotionCommand",
+    "MotionDesignator",
+    "ObjectData",
+    "ObjectDesignator",
+    "PMStatus",
+    "Pose",
+    "ProcessModule",
+    "RuleSet",
+    "SolutionCursor",
+    "Transform",
+    "Validation",
+    "WorldModel",
+    "a",
+    "an",
+    "builtin_rules",
+    "cram_key",
+    "current_environment",
+    "emit",
+    "environment",
+    "equate",
+    "events",
+    "perform",
+    "pm_execute",
+    "register_location_generator",
+    "register_location_validator",
+    "register_rule",
+    "retry_with_designator_solutions",
+    "retry_with_list_solutions",
+    "rule",
+    "static_rules",
+    "subscribe",
+    "with_process_modules",
+    "yaw_quaternion",
+    *_failure_names,
+]

@@ -1,0 +1,306 @@
+"""Environments: which process modules, rules, world model and event subscribers are active.
+
+CRAM binds these with special variables (``*projection-environment*``, the TF transformer,
+the designator role). We bind them with one context variable, so a projected plan and a real
+one can run in the same process, even concurrently in two tasks, without touching each
+other: every asyncio (and cpl) task copies the context of its creator.
+
+``async with executive.environment(world=w, process_modules=[...])`` starts an independent
+environment; ``async with executive.with_process_modules(pm, ...)`` derives one from the
+current environment that shares its world, rules and event subscribers and adds modules.
+Outside any block, :func:`current_environment` returns an empty, read-only environment that
+knows the static rules and nothing else.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Callable, Iterable
+from contextlib import asynccontextmanager
+from contextvars import ContextVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+
+from ._pose import Pose
+from ._rules import RuleSet, static_rules
+from .failures import NoWorldModel
+
+if TYPE_CHECKING:
+    from ._process_module import ProcessModule
+    from .events import Event
+
+__all__ = [
+    "Environment",
+    "WorldModel",
+    "current_environment",
+    "environment",
+    "with_process_modules",
+]
+
+E = TypeVar("E", bound="Event")
+
+
+@runtime_checkable
+class WorldModel(Protocol):
+    """What plans and rules may ask of the world (the belief state; projection implements it
+    with PyBullet, :class:`executive.testing.InMemoryWorld` in memory).
+
+    Methods raise :class:`executive.PerceptionObjectNotInWorld` for unknown objects.
+    """
+
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        """The current pose of the named object in ``frame``."""
+        ...
+
+    def robot_pose(self) -> Pose:
+        """The robot base's pose in ``map``."""
+        ...
+
+    def handle_event(self, event: Event) -> None:
+        """Update the belief state for an event (attach, detach, container opened...)."""
+        ...
+
+
+class _Subscribers:
+    """Event callbacks by event type, shared by an environment and those derived from it."""
+
+    __slots__ = ("by_type",)
+
+    def __init__(self) -> None:
+        self.by_type: dict[type, list[Callable[[Any], Any]]] = {}
+
+
+class Environment:
+    """The process modules, rules, world model and event subscribers of a block.
+
+    Build one directly (``Environment(name="projection", world=w, process_modules=[...])``)
+    and enter it with :func:`environment`; or derive one with :meth:`derive`. ``rules``
+    defaults to :data:`executive.static_rules`; :meth:`register_rule` gives the environment
+    its own overlay on first use, so rules added for a block never leak out of it.
+    """
+
+    __slots__ = (
+        "_frozen",
+        "_owns_rules",
+        "_subscribers",
+        "_world",
+        "name",
+        "parent",
+        "process_modules",
+        "rules",
+    )
+
+    def __init__(
+        self,
+        name: str = "environment",
+        *,
+        process_modules: Iterable[ProcessModule] = (),
+        world: WorldModel | None = None,
+        rules: RuleSet | None = None,
+    ) -> None:
+        self.name = name
+        self.process_modules: tuple[ProcessModule, ...] = _check_modules(process_modules)
+        self._world = world
+        self.rules: RuleSet = rules if rules is not None else static_rules
+        if not isinstance(self.rules, RuleSet):
+            raise TypeError(f"rules must be an executive.RuleSet, got {rules!r}")
+        self._owns_rules = rules is not None and not self.rules.frozen
+        self._subscribers = _Subscribers()
+        self.parent: Environment | None = None
+        self._frozen = False
+
+    # -- world ------------------------------------------------------------------------
+    @property
+    def world(self) -> WorldModel:
+        """The world model; raises :class:`executive.NoWorldModel` when there is none."""
+        if self._world is None:
+            raise NoWorldModel(
+                f"environment {self.name!r} has no world model: enter "
+                "executive.environment(world=...) around the plan"
+            )
+        return self._world
+
+    @property
+    def has_world(self) -> bool:
+        return self._world is not None
+
+    # -- derivation -------------------------------------------------------------------
+    def derive(
+        self,
+        name: str | None = None,
+        *,
+        process_modules: Iterable[ProcessModule] = (),
+        world: WorldModel | None = None,
+        rules: RuleSet | None = None,
+    ) -> Environment:
+        """A child environment: this one's modules followed by ``process_modules``; the same
+        world, rules and event subscribers unless overridden."""
+        env = Environment(
+            name or self.name,
+            process_modules=(*self.process_modules, *_check_modules(process_modules)),
+            world=world if world is not None else self._world,
+            rules=rules if rules is not None else self.rules,
+        )
+        env._owns_rules = False if rules is None else env._owns_rules
+        env._subscribers = self._subscribers
+        env.parent = self
+        return env
+
+    def is_within(self, other: Environment) -> bool:
+        """True if this environment is ``other`` or was derived from it."""
+        env: Environment | None = self
+        while env is not None:
+            if env is other:
+                return True
+            env = env.parent
+        return False
+
+    # -- rules ------------------------------------------------------------------------
+    def _own_rules(self) -> RuleSet:
+        self._check_mutable()
+        if not self._owns_rules:
+            self.rules = self.rules.child(f"{self.name}-rules")
+            self._owns_rules = True
+        return self.rules
+
+    def register_rule(
+        self, kind: str, type: str, fn: Callable[..., Any], *, priority: float = 0,
+        replace: bool = False,
+    ) -> None:
+        """Add (or with ``replace=True`` override) a rule for this environment only."""
+        self._own_rules().register(kind, type, fn, priority=priority, replace=replace)
+
+    def register_location_generator(self, fn: Callable[..., Any], priority: float = 0) -> None:
+        self._own_rules().register_location_generator(fn, priority)
+
+    def register_location_validator(self, fn: Callable[..., Any], priority: float = 0) -> None:
+        self._own_rules().register_location_validator(fn, priority)
+
+    # -- events -----------------------------------------------------------------------
+    def subscribe(self, event_type: type[E], callback: Callable[[E], Any]) -> Callable[[], None]:
+        """Call ``callback(event)`` for every emitted event that is an instance of
+        ``event_type``. Returns a function that unsubscribes. Callbacks run synchronously
+        inside :meth:`emit`, after the world model; an exception in one propagates to the
+        emitter."""
+        self._check_mutable()
+        if not isinstance(event_type, type):
+            raise TypeError(f"subscribe() needs an event class, got {event_type!r}")
+        if not callable(callback):
+            raise TypeError(f"subscribe() needs a callable, got {callback!r}")
+        callbacks = self._subscribers.by_type.setdefault(event_type, [])
+        callbacks.append(callback)
+
+        def unsubscribe() -> None:
+            if callback in callbacks:
+                callbacks.remove(callback)
+
+        return unsubscribe
+
+    def emit(self, event: Event) -> None:
+        """Deliver ``event`` to the world model (``handle_event``), then to subscribers of
+        its class and its base classes, in subscription order."""
+        if self._world is not None:
+            self._world.handle_event(event)
+        by_type = self._subscribers.by_type
+        if not by_type:
+            return
+        for cls in type(event).__mro__:
+            for cb in tuple(by_type.get(cls, ())):
+                cb(event)
+
+    # -- misc -------------------------------------------------------------------------
+    def _check_mutable(self) -> None:
+        if self._frozen:
+            raise RuntimeError(
+                "no executive environment is active: wrap the code in "
+                "`async with executive.environment(...)` (or with_process_modules(...))"
+            )
+
+    def find_process_module(self, name: str) -> ProcessModule | None:
+        for pm in self.process_modules:
+            if pm.name == name:
+                return pm
+        return None
+
+    def __repr__(self) -> str:
+        pms = ", ".join(pm.name for pm in self.process_modules)
+        return f"<Environment {self.name!r} pms=[{pms}] rules={self.rules.name!r}>"
+
+
+def _check_modules(pms: Iterable[Any]) -> tuple[ProcessModule, ...]:
+    out = tuple(pms)
+    if not out:
+        return ()
+    from ._process_module import ProcessModule
+
+    for pm in out:
+        if not isinstance(pm, ProcessModule):
+            raise TypeError(f"expected executive.ProcessModule instances, got {pm!r}")
+    return out
+
+
+def _null_environment() -> Environment:
+    env = Environment("no-environment")
+    env._frozen = True
+    return env
+
+
+#: The read-only environment seen outside any block (static rules; no modules, no world).
+_NULL: Environment = _null_environment()
+_CURRENT: ContextVar[Environment] = ContextVar("executive_environment", default=_NULL)
+
+
+def current_environment() -> Environment:
+    """The environment of the running code (an empty read-only one outside any block)."""
+    return _CURRENT.get()
+
+
+@asynccontextmanager
+async def environment(
+    env: Environment | None = None,
+    /,
+    *,
+    name: str = "environment",
+    process_modules: Iterable[ProcessModule] = (),
+    world: WorldModel | None = None,
+    rules: RuleSet | None = None,
+) -> AsyncIterator[Environment]:
+    """Run a block in ``env`` (or a new independent :class:`Environment` built from the
+    keywords). Its process modules are activated for the block; on leaving (also on failure
+    or evaporation) every goal submitted from within the block is evaporated and awaited, so
+    no goal outlives it."""
+    if env is None:
+        env = Environment(name, process_modules=process_modules, world=world, rules=rules)
+    elif process_modules or world is not None or rules is not None:
+        raise TypeError("pass either an Environment or keywords to build one, not both")
+    async with _activated(env, env.process_modules):
+        yield env
+
+
+@asynccontextmanager
+async def with_process_modules(*pms: ProcessModule) -> AsyncIterator[Environment]:
+    """Activate ``pms`` for a block (CRAM's ``with-process-modules-running``): the block runs
+    in an environment derived from the current one (same world, rules and subscribers) with
+    these modules appended. Leaving the block evaporates any goal still running on them."""
+    parent = _CURRENT.get()
+    if parent._frozen:
+        env = Environment("process-modules", process_modules=pms)
+    else:
+        env = parent.derive(process_modules=pms)
+    async with _activated(env, pms):
+        yield env
+
+
+@asynccontextmanager
+async def _activated(env: Environment, pms: Iterable[ProcessModule]) -> AsyncIterator[None]:
+    started: list[ProcessModule] = []
+    token = _CURRENT.set(env)
+    try:
+        for pm in pms:
+            pm._activate()
+            started.append(pm)
+        yield
+    finally:
+        try:
+            for pm in reversed(started):
+                await pm._deactivate(env)
+        finally:
+            _CURRENT.reset(token)

@@ -1,0 +1,107 @@
+"""``perform``: CRAM's ``exe:perform``.
+
+- **Action designator**: referenced (first grounding ``(plan, arguments)``), then the plan
+  runs as a child task of kind ``"plan"`` whose node carries the annotations
+  ``"designator"`` (the action) and ``"resolved"`` (the grounding). A ``@cpl.plan``
+  function keeps its own name; a plain async function gets the action's type as name.
+- **Motion designator**: (1) the running process modules of the current environment that
+  accept it are the candidates, none -> :class:`executive.NoProcessModule`; (2) it is
+  referenced; (3) the candidates are tried in registration order (CRAM's
+  ``try-each-in-order``) until one succeeds; if all fail, the first failure is raised (a
+  :class:`cpl.CompositeFailure` is unwrapped to its first failure, as ``pm-execute-matching``
+  does). Deliberate difference: the candidates are tried in a plain loop, not through a
+  ``try_in_order`` form, to keep one task (the goal's) per motion.
+- **Object or location designator**: :class:`executive.DesignatorError`, they describe
+  things, not something to do.
+
+Resolution errors (:class:`executive.DesignatorError`) propagate unchanged; evaporation of
+the caller evaporates the running plan or goal (see :mod:`executive._process_module`).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from typing import Any
+
+import cpl
+
+from ._designator import ActionDesignator, Designator, MotionDesignator
+from ._environment import current_environment
+from .failures import DesignatorError, NoProcessModule
+
+__all__ = ["perform"]
+
+
+def _unwrap(failure: BaseException) -> BaseException:
+    while isinstance(failure, cpl.CompositeFailure) and failure.failures:
+        failure = failure.failures[0]
+    return failure
+
+
+async def perform(designator: Designator) -> Any:
+    """Perform an action or motion designator and return the plan's or module's value.
+
+    Raises :class:`executive.DesignatorError` if it cannot be resolved (or is an object or
+    location), :class:`executive.NoProcessModule` if no running module accepts a motion,
+    and whatever plan failure the plan or module raises.
+    """
+    if type(designator) is MotionDesignator:
+        return await _perform_motion(designator)
+    if type(designator) is ActionDesignator:
+        return await _perform_action(designator)
+    if isinstance(designator, MotionDesignator):
+        return await _perform_motion(designator)
+    if isinstance(designator, ActionDesignator):
+        return await _perform_action(designator)
+    if isinstance(designator, Designator):
+        raise DesignatorError(
+            f"cannot perform {designator.short()}: only action and motion designators are "
+            f"performed; reference() a {designator.kind} designator to get its solution",
+            designator,
+        )
+    raise TypeError(f"perform() needs an action or motion designator, got {designator!r}")
+
+
+async def _perform_motion(motion: MotionDesignator) -> Any:
+    env = current_environment()
+    candidates = [pm for pm in env.process_modules if pm._active and pm.accepts(motion)]
+    if not candidates:
+        names = ", ".join(pm.name for pm in env.process_modules) or "none"
+        raise NoProcessModule(
+            f"no running process module accepts {motion!r} (running in environment "
+            f"{env.name!r}: {names})",
+            motion=motion,
+        )
+    motion.reference()
+    first: BaseException | None = None
+    for pm in candidates:
+        try:
+            return await pm._submit(motion, env)
+        except cpl.PlanFailure as failure:
+            if first is None:
+                first = _unwrap(failure)
+    assert first is not None
+    raise first
+
+
+async def _perform_action(action: ActionDesignator) -> Any:
+    grounding = action.reference()
+    plan, arguments = grounding
+    if isinstance(arguments, Mapping):
+        call = plan(**arguments)
+        named = dict(arguments)
+    else:
+        call = plan(*arguments)
+        named = {f"arg{i}": v for i, v in enumerate(arguments)}
+    annotations = {"designator": action, "resolved": grounding}
+    if isinstance(call, cpl.PlanCall):
+        return await call.annotate(**annotations)
+    if inspect.isawaitable(call):
+        return await cpl.with_task(
+            call, name=str(action.type), kind="plan", arguments=named, annotations=annotations
+        )
+    raise TypeError(
+        f"the grounding of {action.short()} names {plan!r}, which returned "
+        f"{type(call).__name__}: action rules must yield async plan functions"
+    )

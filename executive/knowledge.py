@@ -1,0 +1,314 @@
+"""Robot-independent object knowledge (CRAM's ``kr-pp`` grasping tables at HEAD) and the
+arm configurations of the PR2-like robot.
+
+Per object type: its grasps in CRAM's enumeration order, each with the grasp translation
+and the *standard-gripper* rotation (CRAM's standard rotations table: the matrix's third
+column is the approach axis in the object frame), and the pregrasp / 2nd-pregrasp / lift /
+2nd-lift offsets, all in the **object frame** and *added* to the grasp translation; the
+gripping effort (Nm) and the gripper opening (m).
+
+:func:`grasp_poses` computes CRAM's five waypoints ``bTg = bTo · oTg′ · g′Tg`` where
+``oTg′`` is the standard gripper in the object frame and ``g′Tg`` the standard-gripper ->
+PR2 tool-frame rotation (rows (0 1 0), (0 0 1), (1 0 0)). Unknown types or grasps raise
+:class:`LookupError` naming the known ones. Everything here is immutable.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import numpy as np
+
+from executive._pose import Pose, Transform
+
+__all__ = [
+    "ARMS",
+    "ARM_CONFIGURATIONS",
+    "ARM_JOINTS",
+    "LIFT_OFFSET",
+    "STANDARD_ROTATIONS",
+    "STANDARD_TO_PR2_ROTATION",
+    "Grasp",
+    "ObjectKnowledge",
+    "arm_configuration",
+    "grasp",
+    "grasp_poses",
+    "grasps",
+    "gripper_opening",
+    "gripping_effort",
+    "known_types",
+    "object_knowledge",
+]
+
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+
+#: Arms in CRAM's enumeration order (pick-up tries the right arm first).
+ARMS: tuple[str, ...] = ("right", "left")
+
+#: The 7 arm joints of one side, without the ``l_``/``r_`` prefix, root to tip.
+ARM_JOINTS: tuple[str, ...] = (
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "upper_arm_roll_joint",
+    "elbow_flex_joint",
+    "forearm_roll_joint",
+    "wrist_flex_joint",
+    "wrist_roll_joint",
+)
+
+#: The global lift offset (object frame), CRAM HEAD.
+LIFT_OFFSET: Vec3 = (0.0, 0.0, 0.15)
+
+#: Standard-gripper -> PR2 tool-frame rotation (rows), so that the PR2 tool x axis is the
+#: standard gripper's approach axis z.
+STANDARD_TO_PR2_ROTATION: Mat3 = ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0))
+
+#: CRAM's standard grasp rotations (rows), keyed by grasp; the third column is the approach.
+STANDARD_ROTATIONS: Mapping[str, Mat3] = MappingProxyType(
+    {
+        # approach +x: the gripper starts on the object's -x side (towards a robot at -x)
+        "back": ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+        # approach -x
+        "front": ((0.0, 0.0, -1.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+        # approach -y: the gripper starts on the +y side
+        "left-side": ((1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
+        # approach +y
+        "right-side": ((-1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+        # approach -z, fingers closing along the object's y (across x)
+        "top-across-x": ((0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0)),
+        # approach -z, fingers closing along the object's x (across y)
+        "top-across-y": ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
+    }
+)
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """One grasp of an object type; vectors in the object frame (metres)."""
+
+    name: str
+    translation: Vec3
+    rotation: Mat3  # standard gripper in the object frame (rows)
+    pregrasp_offset: Vec3
+    second_pregrasp_offset: Vec3
+    lift_offset: Vec3 = LIFT_OFFSET
+    second_lift_offset: Vec3 = LIFT_OFFSET
+
+    def offsets(self) -> tuple[Vec3, Vec3, Vec3, Vec3, Vec3]:
+        """Offsets of the five waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift]."""
+        zero = (0.0, 0.0, 0.0)
+        return (
+            self.pregrasp_offset,
+            self.second_pregrasp_offset,
+            zero,
+            self.lift_offset,
+            self.second_lift_offset,
+        )
+
+
+@dataclass(frozen=True)
+class ObjectKnowledge:
+    """What the robot knows about a type: grasps (enumeration order), effort, opening."""
+
+    type: str
+    grasps: tuple[Grasp, ...]
+    effort: float
+    opening: float
+
+    def grasp(self, name: str) -> Grasp:
+        for g in self.grasps:
+            if g.name == name:
+                return g
+        raise LookupError(
+            f"object type {self.type!r} has no grasp {name!r}; "
+            f"known grasps: {', '.join(g.name for g in self.grasps)}"
+        )
+
+
+def _side_grasps(
+    back: Vec3, front: Vec3, left: Vec3 | None, right: Vec3 | None, order: tuple[str, ...]
+) -> tuple[Grasp, ...]:
+    """Side grasps with CRAM's cup-like pregrasp offsets, in the given order."""
+    table: dict[str, Grasp] = {
+        "back": Grasp("back", back, STANDARD_ROTATIONS["back"], (-0.15, 0, 0.15), (-0.15, 0, 0)),
+        "front": Grasp("front", front, STANDARD_ROTATIONS["front"], (0.15, 0, 0.15), (0.15, 0, 0)),
+    }
+    if left is not None:
+        table["left-side"] = Grasp(
+            "left-side", left, STANDARD_ROTATIONS["left-side"], (0, 0.15, 0.15), (0, 0.15, 0)
+        )
+    if right is not None:
+        table["right-side"] = Grasp(
+            "right-side", right, STANDARD_ROTATIONS["right-side"], (0, -0.15, 0.15), (0, -0.15, 0)
+        )
+    return tuple(_float_grasp(table[name]) for name in order)
+
+
+def _float_grasp(g: Grasp) -> Grasp:
+    def f(v: tuple[float, ...]) -> Vec3:
+        return (float(v[0]), float(v[1]), float(v[2]))
+
+    return Grasp(
+        g.name,
+        f(g.translation),
+        g.rotation,
+        f(g.pregrasp_offset),
+        f(g.second_pregrasp_offset),
+        f(g.lift_offset),
+        f(g.second_lift_offset),
+    )
+
+
+def _top(name: str, translation: Vec3, rotation: str, offset: float = 0.20) -> Grasp:
+    up = (0.0, 0.0, offset)
+    return Grasp(name, translation, STANDARD_ROTATIONS[rotation], up, up, up, up)
+
+
+def _plate_rotation(side: str) -> Mat3:
+    """A side rotation rolled by π/2 about the approach axis (fingers close vertically
+    around the rim) and tilted by π/6: an approximation of CRAM's plate grasp."""
+    base = np.array(STANDARD_ROTATIONS[side])
+    roll = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    c, s = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    tilt = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    m = base @ roll @ tilt
+    rows = tuple(tuple(float(round(v, 12)) for v in row) for row in m)
+    return rows  # type: ignore[return-value]
+
+
+def _build() -> Mapping[str, ObjectKnowledge]:
+    cup_like_order = ("back", "front", "left-side", "right-side")
+    cup = _side_grasps(
+        (0.02, 0.0, 0.03), (-0.02, 0.0, 0.03), (0.0, -0.02, 0.03), (0.0, 0.02, 0.03),
+        cup_like_order,
+    )
+    milk = _side_grasps(
+        (0.01, 0.0, 0.0), (-0.01, 0.0, 0.0), (0.0, -0.01, 0.0), (0.0, 0.01, 0.0),
+        ("back", "left-side", "right-side", "front"),
+    )
+    cereal = _side_grasps((-0.03, 0.0, 0.04), (0.03, 0.0, 0.04), None, None, ("back", "front"))
+    spoon = (_top("top", (0.0, 0.0, 0.0), "top-across-x"),)
+    bowl = (_top("top", (-0.07, 0.0, 0.01), "top-across-y"),)
+    plate = (
+        _float_grasp(
+            Grasp("left-side", (0.0, 0.115, 0.01), _plate_rotation("left-side"),
+                  (0, 0.15, 0.15), (0, 0.15, 0))
+        ),
+        _float_grasp(
+            Grasp("right-side", (0.0, -0.115, 0.01), _plate_rotation("right-side"),
+                  (0, -0.15, 0.15), (0, -0.15, 0))
+        ),
+    )
+    table = {
+        "bowl": ObjectKnowledge("bowl", bowl, 100.0, 0.10),
+        "spoon": ObjectKnowledge("spoon", spoon, 100.0, 0.04),
+        "cutlery": ObjectKnowledge("cutlery", spoon, 100.0, 0.04),
+        "fork": ObjectKnowledge("fork", spoon, 100.0, 0.04),
+        "knife": ObjectKnowledge("knife", spoon, 100.0, 0.04),
+        "cup": ObjectKnowledge("cup", cup, 50.0, 0.10),
+        "milk": ObjectKnowledge("milk", milk, 15.0, 0.10),
+        "breakfast-cereal": ObjectKnowledge("breakfast-cereal", cereal, 20.0, 0.10),
+        "cereal": ObjectKnowledge("cereal", cereal, 15.0, 0.10),
+        "plate": ObjectKnowledge("plate", plate, 100.0, 0.02),
+    }
+    return MappingProxyType(table)
+
+
+_KNOWLEDGE: Mapping[str, ObjectKnowledge] = _build()
+
+
+def known_types() -> tuple[str, ...]:
+    """Every object type with grasp knowledge, sorted."""
+    return tuple(sorted(_KNOWLEDGE))
+
+
+def object_knowledge(object_type: str) -> ObjectKnowledge:
+    """The knowledge of ``object_type``; unknown -> :class:`LookupError` naming the known."""
+    try:
+        return _KNOWLEDGE[object_type]
+    except (KeyError, TypeError):
+        raise LookupError(
+            f"unknown object type {object_type!r}; known types: {', '.join(known_types())}"
+        ) from None
+
+
+def grasps(object_type: str) -> tuple[str, ...]:
+    """Grasp names of a type in CRAM's enumeration order."""
+    return tuple(g.name for g in object_knowledge(object_type).grasps)
+
+
+def grasp(object_type: str, name: str) -> Grasp:
+    """One grasp; unknown type or grasp -> :class:`LookupError` naming the known ones."""
+    return object_knowledge(object_type).grasp(name)
+
+
+def gripping_effort(object_type: str) -> float:
+    return object_knowledge(object_type).effort
+
+
+def gripper_opening(object_type: str) -> float:
+    return object_knowledge(object_type).opening
+
+
+_G_PRIME_T_G = np.array(STANDARD_TO_PR2_ROTATION)
+
+
+def grasp_poses(
+    object_type: str, grasp_name: str, object_transform_in_base: Transform | Pose
+) -> list[Pose]:
+    """The five tool-frame waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift] as
+    poses in the transform's parent frame (normally ``base_footprint``):
+    ``bTg = bTo · oTg′ · g′Tg`` with the offsets added to the grasp translation in the
+    object frame. Unknown type or grasp -> :class:`LookupError`."""
+    g = grasp(object_type, grasp_name)
+    b_t_o = object_transform_in_base.matrix()
+    frame = object_transform_in_base.frame
+    rot = np.array(g.rotation) @ _G_PRIME_T_G
+    out: list[Pose] = []
+    for off in g.offsets():
+        o_t_g = np.eye(4)
+        o_t_g[:3, :3] = rot
+        o_t_g[:3, 3] = np.add(g.translation, off)
+        out.append(Transform.from_matrix(b_t_o @ o_t_g, frame).to_pose())
+    return out
+
+
+# ----------------------------------------------------------------- PR2-like arm states
+#: Named arm configurations (7 joint values, ARM_JOINTS order) of the PR2-like robot in
+#: :mod:`projection`. ``carry``: forearms tucked in front of the torso; ``park``: arms at
+#: the sides. Both are self-collision-free and inside the 0.65 m base footprint (tested).
+ARM_CONFIGURATIONS: Mapping[str, Mapping[str, tuple[float, ...]]] = MappingProxyType(
+    {
+        "park": MappingProxyType(
+            {
+                "left": (0.116, 1.042, 3.418, -2.174, 3.064, -0.452, -1.497),
+                "right": (-0.116, 1.042, -3.418, -2.174, -3.064, -0.452, 1.497),
+            }
+        ),
+        "carry": MappingProxyType(
+            {
+                "left": (0.22, 1.294, 1.566, -2.321, -2.37, -0.284, 0.282),
+                "right": (-0.16, 1.018, -1.309, -2.22, 1.187, -0.059, -0.594),
+            }
+        ),
+    }
+)
+
+
+def arm_configuration(name: str, arm: str) -> tuple[float, ...]:
+    """Joint values of a named configuration for ``arm`` ("left"/"right");
+    unknown -> :class:`LookupError` naming the known ones."""
+    try:
+        config = ARM_CONFIGURATIONS[name]
+    except KeyError:
+        raise LookupError(
+            f"unknown arm configuration {name!r}; known: {', '.join(ARM_CONFIGURATIONS)}"
+        ) from None
+    try:
+        return config[arm]
+    except KeyError:
+        raise LookupError(f"unknown arm {arm!r}; known arms: {', '.join(ARMS)}") from None

@@ -1,0 +1,69 @@
+"""Object knowledge: grasp tables, grasp poses, arm configurations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from executive import knowledge
+from executive._pose import Pose
+
+
+def test_grasp_enumeration_order() -> None:
+    assert knowledge.grasps("cup") == ("back", "front", "left-side", "right-side")
+    assert knowledge.grasps("milk") == ("back", "left-side", "right-side", "front")
+    assert knowledge.grasps("breakfast-cereal") == ("back", "front")
+    assert knowledge.grasps("bowl") == ("top",)
+    assert knowledge.ARMS == ("right", "left")
+
+
+def test_unknown_type_and_grasp_name_the_known_ones() -> None:
+    with pytest.raises(LookupError, match=r"known types: .*bowl"):
+        knowledge.grasps("teapot")
+    with pytest.raises(LookupError, match="known grasps: back, front"):
+        knowledge.grasp("breakfast-cereal", "top")
+    with pytest.raises(LookupError, match="known: park, carry"):
+        knowledge.arm_configuration("dance", "left")
+
+
+def test_back_grasp_of_an_object_ahead_is_the_identity_tool_rotation() -> None:
+    obj = Pose((0.6, 0.0, 0.9), frame="base_footprint").to_transform("cup")
+    poses = knowledge.grasp_poses("cup", "back", obj)
+    assert len(poses) == 5 and all(p.frame == "base_footprint" for p in poses)
+    pre, pre2, grasp, lift, lift2 = poses
+    assert grasp.position == pytest.approx((0.62, 0.0, 0.93))
+    assert grasp.angle_to(Pose()) == pytest.approx(0.0, abs=1e-9)
+    assert pre.position == pytest.approx((0.47, 0.0, 1.08))
+    assert pre2.position == pytest.approx((0.47, 0.0, 0.93))
+    assert lift.position == pytest.approx((0.62, 0.0, 1.08))
+    assert lift2.position == lift.position
+
+
+def test_offsets_are_in_the_object_frame() -> None:
+    # milk turned by pi: its back grasp comes from +x in base
+    obj = Pose.from_xyz_yaw(0.6, 0.0, 0.95, np.pi, "base_footprint").to_transform("milk")
+    pre, _, grasp, _, _ = knowledge.grasp_poses("milk", "back", obj)
+    assert grasp.position == pytest.approx((0.59, 0.0, 0.95), abs=1e-9)
+    assert pre.position == pytest.approx((0.74, 0.0, 1.10), abs=1e-9)
+    tool_x = grasp.as_rotation().apply([1.0, 0.0, 0.0])
+    assert tool_x == pytest.approx([-1.0, 0.0, 0.0], abs=1e-9)  # approaching along -x
+
+
+def test_top_grasp_points_the_tool_down() -> None:
+    obj = Pose((0.5, 0.1, 0.8), frame="base_footprint").to_transform("bowl")
+    grasp = knowledge.grasp_poses("bowl", "top", obj)[2]
+    assert grasp.as_rotation().apply([1.0, 0.0, 0.0]) == pytest.approx([0, 0, -1], abs=1e-9)
+    assert grasp.position == pytest.approx((0.43, 0.1, 0.81))
+
+
+def test_standard_rotations_are_proper() -> None:
+    for name, rows in knowledge.STANDARD_ROTATIONS.items():
+        m = np.array(rows)
+        assert np.allclose(m @ m.T, np.eye(3)), name
+        assert np.linalg.det(m) == pytest.approx(1.0), name
+
+
+def test_arm_configurations_have_seven_values() -> None:
+    for name in ("park", "carry"):
+        for arm in knowledge.ARMS:
+            assert len(knowledge.arm_configuration(name, arm)) == 7
