@@ -125,16 +125,22 @@ def run() -> None:
     base = results["asyncio task"]
     print(f"executive.perform benchmark (n={n}, median of 5 top levels, µs per call)")
     for name, us in results.items():
-        print(f"  {name:<15} {us:8.2f} µs   x{us / base:5.1f} asyncio task"
-              f"   x{us / results['bare await']:6.0f} bare await")
-    print(f"  executive overhead: motion {results['perform motion'] - results['cpl.with_task']:.1f}"
-          f" µs over one cpl task, action "
-          f"{results['perform action'] - results['2 nested tasks']:.1f} µs over two")
+        print(
+            f"  {name:<15} {us:8.2f} µs   x{us / base:5.1f} asyncio task"
+            f"   x{us / results['bare await']:6.0f} bare await"
+        )
+    print(
+        f"  executive overhead: motion {results['perform motion'] - results['cpl.with_task']:.1f}"
+        f" µs over one cpl task, action "
+        f"{results['perform action'] - results['2 nested tasks']:.1f} µs over two"
+    )
     for name in ("perform motion", "perform action"):
         verdict = "OK" if results[name] <= TARGET_US else "OVER"
         print(f"  target {name}: <= {TARGET_US:.0f} µs -> {verdict}")
-    print(f"flatness over {flat_n} motion performs in one top level: first 100 "
-          f"{first:.2f} µs, last 100 {last:.2f} µs, ratio {last / first:.2f}")
+    print(
+        f"flatness over {flat_n} motion performs in one top level: first 100 "
+        f"{first:.2f} µs, last 100 {last:.2f} µs, ratio {last / first:.2f}"
+    )
 
 
 if __name__ == "__main__":

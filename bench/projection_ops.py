@@ -31,8 +31,10 @@ def median_us(fn: Callable[[], object], reps: int) -> float:
 
 
 def row(name: str, ours: float, base_name: str, base: float, target: str) -> None:
-    print(f"{name:<34} {ours:>10.1f} µs | {base_name:<40} {base:>10.1f} µs | "
-          f"ratio {ours / base:6.2f}x  ({target})")
+    print(
+        f"{name:<34} {ours:>10.1f} µs | {base_name:<40} {base:>10.1f} µs | "
+        f"ratio {ours / base:6.2f}x  ({target})"
+    )
 
 
 def main() -> None:
@@ -59,13 +61,19 @@ def main() -> None:
         def raw_probe() -> None:
             flip.reverse()
             pos = flip[0].position
-            pb.resetBasePositionAndOrientation(robot, (pos[0], pos[1], 0.0),
-                                               flip[0].orientation, physicsClientId=c)
+            pb.resetBasePositionAndOrientation(
+                robot, (pos[0], pos[1], 0.0), flip[0].orientation, physicsClientId=c
+            )
             pb.performCollisionDetection(physicsClientId=c)
             pb.getContactPoints(bodyA=robot, physicsClientId=c)
 
-        row("drive + collision check", median_us(drive, reps),
-            "reset + collision detection + contacts", median_us(raw_probe, reps), "target ≤ 2x")
+        row(
+            "drive + collision check",
+            median_us(drive, reps),
+            "reset + collision detection + contacts",
+            median_us(raw_probe, reps),
+            "target ≤ 2x",
+        )
         w.drive(a)
 
         # IK: one verified solve (current torso) vs one raw calculateInverseKinematics
@@ -80,13 +88,24 @@ def main() -> None:
 
         def raw_ik() -> None:
             w.move_joints(right=park)
-            pb.calculateInverseKinematics(robot, w._tool["right"], goal_map.position,
-                                          goal_map.orientation, maxNumIterations=100,
-                                          residualThreshold=1e-4, physicsClientId=c)
+            pb.calculateInverseKinematics(
+                robot,
+                w._tool["right"],
+                goal_map.position,
+                goal_map.orientation,
+                maxNumIterations=100,
+                residualThreshold=1e-4,
+                physicsClientId=c,
+            )
 
         n = max(50, reps // 10)
-        row("move_tcp (verified IK)", median_us(ik, n), "calculateInverseKinematics 100 it",
-            median_us(raw_ik, n), "target ≤ 3x")
+        row(
+            "move_tcp (verified IK)",
+            median_us(ik, n),
+            "calculateInverseKinematics 100 it",
+            median_us(raw_ik, n),
+            "target ≤ 3x",
+        )
         w.park_arms()
 
         # detect vs one ray batch and vs one 320x200 segmentation render
@@ -100,33 +119,66 @@ def main() -> None:
         proj = pb.computeProjectionMatrixFOV(50.0, 320 / 200, 0.1, 10.0)
         lo, hi = w.object_aabb("cup")
         starts = [cam.position] * 27
-        ends = [(lo[0] + (hi[0] - lo[0]) * i / 2, lo[1] + (hi[1] - lo[1]) * j / 2,
-                 lo[2] + (hi[2] - lo[2]) * k / 2) for i in range(3) for j in range(3)
-                for k in range(3)]
+        ends = [
+            (
+                lo[0] + (hi[0] - lo[0]) * i / 2,
+                lo[1] + (hi[1] - lo[1]) * j / 2,
+                lo[2] + (hi[2] - lo[2]) * k / 2,
+            )
+            for i in range(3)
+            for j in range(3)
+            for k in range(3)
+        ]
         det = median_us(lambda: w.detect(desig), reps // 4)
         rays = median_us(lambda: pb.rayTestBatch(starts, ends, physicsClientId=c), reps // 4)
-        cam_us = median_us(lambda: pb.getCameraImage(
-            320, 200, view, proj, flags=pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX,
-            renderer=pb.ER_TINY_RENDERER, physicsClientId=c), 20)
+        cam_us = median_us(
+            lambda: pb.getCameraImage(
+                320,
+                200,
+                view,
+                proj,
+                flags=pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX,
+                renderer=pb.ER_TINY_RENDERER,
+                physicsClientId=c,
+            ),
+            20,
+        )
         row("detect (27 rays)", det, "rayTestBatch 27 rays", rays, "absolute < 20 ms")
-        row("detect (27 rays)", det, "getCameraImage 320x200 segmentation", cam_us,
-            "CRAM renders twice")
+        row(
+            "detect (27 rays)",
+            det,
+            "getCameraImage 320x200 segmentation",
+            cam_us,
+            "CRAM renders twice",
+        )
 
         # snapshot / restore vs saveState / restoreState
         snap = w.snapshot()
         state = pb.saveState(physicsClientId=c)
-        row("snapshot()", median_us(w.snapshot, reps), "saveState",
-            median_us(lambda: pb.removeState(pb.saveState(physicsClientId=c),
-                                             physicsClientId=c), max(20, reps // 20)),
-            "manual vs PyBullet")
-        row("restore(snap)", median_us(lambda: w.restore(snap), reps), "restoreState",
+        row(
+            "snapshot()",
+            median_us(w.snapshot, reps),
+            "saveState",
+            median_us(
+                lambda: pb.removeState(pb.saveState(physicsClientId=c), physicsClientId=c),
+                max(20, reps // 20),
+            ),
+            "manual vs PyBullet",
+        )
+        row(
+            "restore(snap)",
+            median_us(lambda: w.restore(snap), reps),
+            "restoreState",
             median_us(lambda: pb.restoreState(state, physicsClientId=c), reps),
-            "manual vs PyBullet")
-        row("placing_pose_stable (side world)",
+            "manual vs PyBullet",
+        )
+        row(
+            "placing_pose_stable (side world)",
             median_us(lambda: w.placing_pose_stable("cup", Pose((-0.8, 1.3, 0.905))), 20),
             "600 x stepSimulation (main world)",
-            median_us(lambda: [pb.stepSimulation(physicsClientId=c) for _ in range(1)], 200)
-            * 600, "early stop at rest")
+            median_us(lambda: [pb.stepSimulation(physicsClientId=c) for _ in range(1)], 200) * 600,
+            "early stop at rest",
+        )
 
 
 if __name__ == "__main__":

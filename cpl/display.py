@@ -70,11 +70,11 @@ _ANNOTATION_LIMIT = 60
 
 def format_duration(seconds: float) -> str:
     """``0.4ms``, ``12.0ms``, ``1.25s``, ``2m03.5s``."""
-    if seconds < 1.0:
+    if round(seconds * 1000, 1) < 1000.0:
         return f"{seconds * 1000:.1f}ms"
-    if seconds < 60.0:
+    if round(seconds, 2) < 60.0:
         return f"{seconds:.2f}s"
-    minutes, rest = divmod(seconds, 60.0)
+    minutes, rest = divmod(round(seconds, 1), 60.0)
     return f"{int(minutes)}m{rest:04.1f}s"
 
 
@@ -322,3 +322,6 @@ class LiveTaskTree:
             self.refresh(final=True)
         finally:
             self._live.stop()
+            if not self._live.console.is_terminal:
+                # rich leaves a non-terminal's last frame without a line end
+                self._live.console.line()

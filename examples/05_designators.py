@@ -71,9 +71,14 @@ async def fetch(object: Any, arm: str) -> Any:
 
     return await cpl.with_failure_handling(
         body,
-        [(NavigationPoseUnreachable,
-          lambda f: retry_with_designator_solutions(
-              robot_location, relocations, rethrow=ObjectUnfetchable(object=object)))],
+        [
+            (
+                NavigationPoseUnreachable,
+                lambda f: retry_with_designator_solutions(
+                    robot_location, relocations, rethrow=ObjectUnfetchable(object=object)
+                ),
+            )
+        ],
     )
 
 
@@ -109,8 +114,14 @@ def main() -> None:
     where = a.location(("side", "left"), ("side", "front"), on=shelf, range_invert=0.5)
     print("Designators:")
     print(" ", where)
-    print("  first side:", where.get("side"), "| all sides:", where.get_all("side"),
-          "| range-invert:", where["range_invert"])
+    print(
+        "  first side:",
+        where.get("side"),
+        "| all sides:",
+        where.get_all("side"),
+        "| range-invert:",
+        where["range_invert"],
+    )
     print("  going ->", a.motion(type="going", pose=Pose((1, 2, 0))).reference())
 
     rules = RuleSet()
@@ -121,8 +132,9 @@ def main() -> None:
 
     world = InMemoryWorld({"cup-1": CUP_POSE}, types={"cup-1": "cup"})
     modules = [
-        FakeProcessModule("navigation", accepts="going", fail_on={1: NavigationPoseUnreachable},
-                          delay=2.0),
+        FakeProcessModule(
+            "navigation", accepts="going", fail_on={1: NavigationPoseUnreachable}, delay=2.0
+        ),
         FakeProcessModule("ptu", accepts="looking", delay=0.2),
         FakeProcessModule("perception", accepts="detecting", result=detect, delay=0.5),
         FakeProcessModule("grippers", accepts={"opening-gripper", "gripping"}, delay=0.3),
@@ -130,12 +142,14 @@ def main() -> None:
     ]
 
     async def demo() -> Any:
-        async with environment(name="fake-robot", rules=rules, world=world,
-                               process_modules=modules):
+        async with environment(
+            name="fake-robot", rules=rules, world=world, process_modules=modules
+        ):
             robot_loc = a.location(reachable_for="pr2", location=a.location(of_item_object=cup))
-            print("  reachable-for solutions:",
-                  [tuple(round(v, 2) for v in p.position[:2])
-                   for p in robot_loc.solutions().take(4)])
+            print(
+                "  reachable-for solutions:",
+                [tuple(round(v, 2) for v in p.position[:2]) for p in robot_loc.solutions().take(4)],
+            )
             return await perform(an.action(type="fetching", object=cup))
 
     held = cpl.run(demo, name="designators-demo")

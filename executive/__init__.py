@@ -20,6 +20,8 @@ from ._designator import (
 )
 from ._environment import (
     Environment,
+    ProbeResult,
+    ProjectionWorld,
     WorldModel,
     current_environment,
     environment,
@@ -70,6 +72,8 @@ __all__ = [
     "SolutionCursor",
     "Transform",
     "Validation",
+    "ProbeResult",
+    "ProjectionWorld",
     "WorldModel",
     "a",
     "an",

@@ -163,8 +163,8 @@ def _invalid(value: Any, depth: int = 0) -> str | None:
         for v in value:
             why = _invalid(v, depth + 1)
             if why is not None:
-                return why if isinstance(v, (tuple, list, Designator)) else (
-                    f"{why} in {_fmt(value)}"
+                return (
+                    why if isinstance(v, (tuple, list, Designator)) else (f"{why} in {_fmt(value)}")
                 )
         return None
     dtype = getattr(value, "dtype", None)
@@ -476,9 +476,7 @@ def equate(parent: Designator, successor: Designator) -> Designator:
     if not isinstance(parent, Designator) or not isinstance(successor, Designator):
         raise TypeError(f"equate() needs two designators, got {parent!r} and {successor!r}")
     if parent.kind != successor.kind:
-        raise TypeError(
-            f"cannot equate {parent.short()} with {successor.short()}: different kinds"
-        )
+        raise TypeError(f"cannot equate {parent.short()} with {successor.short()}: different kinds")
     youngest = parent.current()
     oldest = successor.first()
     if youngest.first() is oldest:

@@ -14,9 +14,10 @@ knows the static rules and nothing else.
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Callable, Iterable
+from collections.abc import AsyncIterator, Callable, Iterable, Sequence
 from contextlib import asynccontextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
 from ._pose import Pose
@@ -56,6 +57,68 @@ class WorldModel(Protocol):
 
     def handle_event(self, event: Event) -> None:
         """Update the belief state for an event (attach, detach, container opened...)."""
+        ...
+
+
+@dataclass(frozen=True)
+class ProbeResult:
+    """The outcome of a projection probe: ``ok``, or why not (``failure`` is the typed
+    failure the real motion would raise, e.g. ``ManipulationPoseUnreachable``), and at which
+    waypoint (``index``)."""
+
+    ok: bool
+    failure: BaseException | None = None
+    index: int | None = None
+
+
+@runtime_checkable
+class ProjectionWorld(WorldModel, Protocol):
+    """A world model that can *imagine*: the probes behind CRAM's projection checks
+    (``check-navigating-collisions``, ``check-picking-up-collisions``,
+    ``check-placing-collisions``, ``check-placing-pose-stability``,
+    ``check-environment-manipulation-collisions``).
+
+    Every probe leaves the world exactly as it found it. Plans iterate designator
+    solutions around these probes (in :mod:`plans`); projection implements them with
+    PyBullet. Poses may be given in ``map`` or ``base_footprint``.
+    """
+
+    def object_type(self, name: str) -> str:
+        """The type of a known object (``PerceptionObjectNotInWorld`` otherwise)."""
+        ...
+
+    def object_in_hand(self, arm: str) -> str | None:
+        """The name of the object attached to ``arm``'s gripper, if any."""
+        ...
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        """The pose of a robot or environment link (``LookupError`` for unknown links)."""
+        ...
+
+    def probe_base_pose(self, pose: Pose) -> ProbeResult:
+        """Would the robot (with what it holds) stand collision-free at ``pose``?"""
+        ...
+
+    def probe_arm_trajectory(
+        self,
+        arm: str,
+        waypoints: Sequence[Pose],
+        *,
+        robot_pose: Pose | None = None,
+        gripper_opening: float | None = None,
+        allowed_contacts: Sequence[str] = (),
+        check_collisions: Sequence[bool] | bool = True,
+    ) -> ProbeResult:
+        """Move ``arm``'s tool frame through ``waypoints`` (IK with torso resampling) from
+        ``robot_pose`` (default: where the robot is). A waypoint fails if IK does not reach
+        it, or, where ``check_collisions`` is true for it, if the robot then touches
+        anything but its attached objects and the ``allowed_contacts`` (object or link
+        names)."""
+        ...
+
+    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
+        """Would an object of ``object_type`` released at ``pose`` stay put (moved less than
+        0.2 m after ~600 simulated steps)?"""
         ...
 
 
@@ -162,7 +225,12 @@ class Environment:
         return self.rules
 
     def register_rule(
-        self, kind: str, type: str, fn: Callable[..., Any], *, priority: float = 0,
+        self,
+        kind: str,
+        type: str,
+        fn: Callable[..., Any],
+        *,
+        priority: float = 0,
         replace: bool = False,
     ) -> None:
         """Add (or with ``replace=True`` override) a rule for this environment only."""

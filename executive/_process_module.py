@@ -195,7 +195,9 @@ class ProcessModule(abc.ABC):
         except TimeoutError:
             log.warning(
                 "process module %s: on_cancel(%s) did not finish within %s s",
-                self.name, motion.short(), self.cancel_timeout,
+                self.name,
+                motion.short(),
+                self.cancel_timeout,
             )
         except Exception:
             log.exception("process module %s: on_cancel(%s) failed", self.name, motion.short())

@@ -183,11 +183,17 @@ def _plate_rotation(side: str) -> Mat3:
 def _build() -> Mapping[str, ObjectKnowledge]:
     cup_like_order = ("back", "front", "left-side", "right-side")
     cup = _side_grasps(
-        (0.02, 0.0, 0.03), (-0.02, 0.0, 0.03), (0.0, -0.02, 0.03), (0.0, 0.02, 0.03),
+        (0.02, 0.0, 0.03),
+        (-0.02, 0.0, 0.03),
+        (0.0, -0.02, 0.03),
+        (0.0, 0.02, 0.03),
         cup_like_order,
     )
     milk = _side_grasps(
-        (0.01, 0.0, 0.0), (-0.01, 0.0, 0.0), (0.0, -0.01, 0.0), (0.0, 0.01, 0.0),
+        (0.01, 0.0, 0.0),
+        (-0.01, 0.0, 0.0),
+        (0.0, -0.01, 0.0),
+        (0.0, 0.01, 0.0),
         ("back", "left-side", "right-side", "front"),
     )
     cereal = _side_grasps((-0.03, 0.0, 0.04), (0.03, 0.0, 0.04), None, None, ("back", "front"))
@@ -195,12 +201,22 @@ def _build() -> Mapping[str, ObjectKnowledge]:
     bowl = (_top("top", (-0.07, 0.0, 0.01), "top-across-y"),)
     plate = (
         _float_grasp(
-            Grasp("left-side", (0.0, 0.115, 0.01), _plate_rotation("left-side"),
-                  (0, 0.15, 0.15), (0, 0.15, 0))
+            Grasp(
+                "left-side",
+                (0.0, 0.115, 0.01),
+                _plate_rotation("left-side"),
+                (0, 0.15, 0.15),
+                (0, 0.15, 0),
+            )
         ),
         _float_grasp(
-            Grasp("right-side", (0.0, -0.115, 0.01), _plate_rotation("right-side"),
-                  (0, -0.15, 0.15), (0, -0.15, 0))
+            Grasp(
+                "right-side",
+                (0.0, -0.115, 0.01),
+                _plate_rotation("right-side"),
+                (0, -0.15, 0.15),
+                (0, -0.15, 0),
+            )
         ),
     )
     table = {
