@@ -89,14 +89,39 @@ class Plan(Generic[P, R]):
         self.fn = fn
         self.name = name or fn.__name__
         self.signature = inspect.signature(fn)
+        params = list(self.signature.parameters.values())
+        # Fast path for the common plan signature (plain positional-or-keyword parameters):
+        # names in order and their defaults; anything else goes through Signature.bind.
+        simple = all(p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD for p in params)
+        self._names: tuple[str, ...] | None = tuple(p.name for p in params) if simple else None
+        self._defaults = {p.name: p.default for p in params if p.default is not p.empty}
         functools.update_wrapper(self, fn)
 
     def bind(self, args: tuple[Any, ...], kwargs: dict[str, Any]) -> dict[str, Any]:
+        names = self._names
+        if names is not None and len(args) <= len(names):
+            bound = dict(zip(names, args))
+            if kwargs:
+                for key, value in kwargs.items():
+                    if key not in names or key in bound:
+                        break
+                    bound[key] = value
+                else:
+                    kwargs = {}
+            if not kwargs:
+                for name in names[len(args) :]:
+                    if name not in bound:
+                        if name not in self._defaults:
+                            break
+                        bound[name] = self._defaults[name]
+                else:
+                    return bound
         try:
-            bound = self.signature.bind(*args, **kwargs)
+            full = self.signature.bind(*args, **kwargs)
         except TypeError as exc:
             raise TypeError(f"plan {self.name!r}: {exc}") from None
-        return dict(bound.arguments)
+        full.apply_defaults()
+        return dict(full.arguments)
 
     def __call__(self, *args: P.args, **kwargs: P.kwargs) -> PlanCall[R]:
         # Bind at the call site: bad arguments fail early, where the mistake is.

@@ -15,6 +15,11 @@ class Status(enum.Enum):
     ``FAILED``. Dead statuses (``SUCCEEDED``, ``FAILED``, ``EVAPORATED``) are terminal.
     """
 
+    # Members are singletons compared by identity, so an identity hash is consistent with
+    # equality; it is a C-level hash, unlike Enum's default (hash of the name), and status
+    # sets are checked on every transition of every task.
+    __hash__ = object.__hash__
+
     CREATED = "created"
     RUNNING = "running"
     SUSPENDED = "suspended"

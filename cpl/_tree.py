@@ -527,6 +527,8 @@ def task_fields(task: TaskLike, path: tuple[str, ...] | None = None) -> dict[str
 
 
 def _subtree_size(task: TaskLike) -> int:
+    if not task.children:
+        return 1
     count = 0
     stack = [task]
     while stack:
@@ -589,6 +591,13 @@ def snapshot(
                 shown.append(c)
             else:
                 collapsed[index] += size
+        if max_nodes is not None:
+            # Pre-order takes at most `room` more tasks, so children past the first `room`
+            # can never be shown: count them now instead of queueing them one by one.
+            room = max_nodes - len(tasks)
+            if len(shown) > room:
+                truncated[index] += sum(_subtree_size(c) for c in shown[room:])
+                del shown[room:]
         stack.extend((c, index) for c in reversed(shown))
     kids: list[list[TaskNode]] = [[] for _ in tasks]
     root: TaskNode | None = None

@@ -252,7 +252,7 @@ class LiveTaskTree:
         root: RootSource,
         *,
         refresh_per_second: float = 4,
-        max_nodes: int = 200,
+        max_nodes: int = 100,
         console: Console | None = None,
         ascii: bool = False,
         transient: bool = False,

@@ -12,14 +12,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import cpl
 
 from ._designator import Designator
-from ._pose import Pose
+from ._environment import ProbeResult
+from ._pose import Pose, Transform
 from ._process_module import ProcessModule
 from .events import (
     ContainerClosed,
@@ -31,9 +32,18 @@ from .events import (
     RobotStateChanged,
     object_name,
 )
-from .failures import PerceptionObjectNotInWorld
+from .failures import (
+    HighLevelFailure,
+    ManipulationPoseUnreachable,
+    NavigationPoseUnreachable,
+    PerceptionObjectNotInWorld,
+)
 
-__all__ = ["FakeProcessModule", "InMemoryWorld", "WorldObject"]
+__all__ = ["PROBES", "FakeProcessModule", "InMemoryWorld", "WorldObject"]
+
+#: The probe kinds of :class:`InMemoryWorld`: ``base`` (``probe_base_pose``), ``arm``
+#: (``probe_arm_trajectory``), ``stability`` (``probe_placing_stability``).
+PROBES = ("base", "arm", "stability")
 
 
 @dataclass
@@ -47,14 +57,27 @@ class WorldObject:
 
 
 class InMemoryWorld:
-    """A :class:`executive.WorldModel` in plain Python.
+    """A :class:`executive.ProjectionWorld` in plain Python.
 
     Events: ``ObjectAttached``/``ObjectDetached`` set/clear ``attached_to`` (an attached
-    object's pose follows nothing: this world has no kinematics); ``ContainerOpened``/
+    object's pose follows nothing, unless it is attached to a link given in ``links``: then
+    it keeps its pose relative to that link); ``ContainerOpened``/
     ``ContainerClosed`` add/subtract ``distance`` to ``joint_states[container]``;
     ``ObjectPerceived`` appends to ``perceived``; ``RobotStateChanged`` bumps
     ``robot_state_changes``. Every event is appended to ``events``.
     Unknown objects raise :class:`executive.PerceptionObjectNotInWorld`.
+
+    Links: ``links`` maps link names to poses in ``map`` or ``base_footprint`` (a
+    ``base_footprint`` link moves with the robot); :meth:`set_link_pose` changes one.
+
+    Probes (every call is recorded in ``probe_calls[kind]``, kinds :data:`PROBES`): a probe
+    fails when its 1-based call number is a key of ``fail_probe[kind]`` (the value: a failure
+    instance or class, ``True`` for the default failure, or a whole :class:`ProbeResult`),
+    when the base pose is within 1 mm of one of ``blocked_poses``, when a waypoint
+    (compared in the frame it is given in) is within 1 mm of one of
+    ``unreachable_waypoints`` (``index`` = the first such waypoint), or when a placing pose
+    is within 1 mm of one of ``unstable_poses``. Default failures:
+    ``NavigationPoseUnreachable``, ``ManipulationPoseUnreachable``, ``HighLevelFailure``.
     """
 
     def __init__(
@@ -63,6 +86,11 @@ class InMemoryWorld:
         *,
         robot_pose: Pose | None = None,
         types: Mapping[str, str] | None = None,
+        links: Mapping[str, Pose] | None = None,
+        fail_probe: Mapping[str, Mapping[int, Any]] | None = None,
+        blocked_poses: Collection[Pose] = (),
+        unreachable_waypoints: Collection[Pose] = (),
+        unstable_poses: Collection[Pose] = (),
     ) -> None:
         self.objects: dict[str, WorldObject] = {}
         for name, pose in (objects or {}).items():
@@ -72,6 +100,18 @@ class InMemoryWorld:
         self.events: list[Event] = []
         self.perceived: list[Any] = []
         self.robot_state_changes = 0
+        self.links: dict[str, Pose] = dict(links or {})
+        self._held: dict[str, Transform] = {}
+        unknown = set(fail_probe or {}) - set(PROBES)
+        if unknown:
+            raise ValueError(f"fail_probe kinds are {', '.join(PROBES)}; got {sorted(unknown)}")
+        self.fail_probe: dict[str, dict[int, Any]] = {
+            kind: dict((fail_probe or {}).get(kind, {})) for kind in PROBES
+        }
+        self.blocked_poses: list[Pose] = list(blocked_poses)
+        self.unreachable_waypoints: list[Pose] = list(unreachable_waypoints)
+        self.unstable_poses: list[Pose] = list(unstable_poses)
+        self.probe_calls: dict[str, list[Any]] = {kind: [] for kind in PROBES}
 
     def add_object(self, name: str, pose: Pose, *, type: str | None = None) -> WorldObject:
         if not isinstance(pose, Pose):
@@ -91,13 +131,24 @@ class InMemoryWorld:
 
     # -- WorldModel -------------------------------------------------------------------
     def object_pose(self, name: str, frame: str = "map") -> Pose:
-        pose = self._object(name).pose
+        obj = self._object(name)
+        pose = obj.pose
+        rel = self._held.get(name)
+        if rel is not None and obj.attached_to is not None:
+            link = self.link_pose(str(obj.attached_to[1]), "map").to_transform()
+            pose = (link * rel).to_pose()
+        return self._express(pose, frame)
+
+    def _express(self, pose: Pose, frame: str) -> Pose:
         if frame == pose.frame:
             return pose
+        base = self._robot_pose.to_transform("base_footprint")
         if frame == "base_footprint" and pose.frame == "map":
-            base = self._robot_pose.to_transform("base_footprint")
             result: Pose = base.inverse() * pose
             return result
+        if frame == "map" and pose.frame == "base_footprint":
+            mapped: Pose = base * pose
+            return mapped
         raise ValueError(f"InMemoryWorld knows frames 'map' and 'base_footprint', not {frame!r}")
 
     def robot_pose(self) -> Pose:
@@ -109,12 +160,103 @@ class InMemoryWorld:
     def set_object_pose(self, name: str, pose: Pose) -> None:
         self._object(name).pose = pose
 
+    # -- ProjectionWorld --------------------------------------------------------------
+    def object_type(self, name: str) -> str:
+        type_ = self._object(name).type
+        if type_ is None:
+            raise LookupError(f"object {name!r} was added without a type")
+        return type_
+
+    def object_in_hand(self, arm: str) -> str | None:
+        held = self.attached(arm)
+        return held[0] if held else None
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        try:
+            pose = self.links[link]
+        except KeyError:
+            known = ", ".join(sorted(self.links)) or "none"
+            raise LookupError(f"unknown link {link!r} (known: {known})") from None
+        return self._express(pose, frame)
+
+    def set_link_pose(self, link: str, pose: Pose) -> None:
+        """Move a link (objects attached to it follow)."""
+        if not isinstance(pose, Pose):
+            raise TypeError(f"link {link!r}: pose must be an executive.Pose, got {pose!r}")
+        self.links[link] = pose
+
+    def _probe_failure(self, kind: str, default: Any) -> ProbeResult | None:
+        spec = self.fail_probe[kind].get(len(self.probe_calls[kind]))
+        if spec is None:
+            return None
+        if isinstance(spec, ProbeResult):
+            return spec
+        if spec is True:
+            spec = default
+        return ProbeResult(False, spec() if isinstance(spec, type) else spec)
+
+    @staticmethod
+    def _near(pose: Pose, poses: Collection[Pose]) -> bool:
+        return any(
+            p.frame == pose.frame and p.distance_to(pose) <= 1e-3 and p.angle_to(pose) <= 1e-3
+            for p in poses
+        )
+
+    def probe_base_pose(self, pose: Pose) -> ProbeResult:
+        self.probe_calls["base"].append(pose)
+        scripted = self._probe_failure("base", NavigationPoseUnreachable)
+        if scripted is not None:
+            return scripted
+        blocked = [self._express(p, "map") for p in self.blocked_poses]
+        if self._near(self._express(pose, "map"), blocked):
+            return ProbeResult(False, NavigationPoseUnreachable(location=pose))
+        return ProbeResult(True)
+
+    def probe_arm_trajectory(
+        self,
+        arm: str,
+        waypoints: Sequence[Pose],
+        *,
+        robot_pose: Pose | None = None,
+        gripper_opening: float | None = None,
+        allowed_contacts: Sequence[str] = (),
+        check_collisions: Sequence[bool] | bool = True,
+    ) -> ProbeResult:
+        self.probe_calls["arm"].append((arm, tuple(waypoints)))
+        scripted = self._probe_failure("arm", ManipulationPoseUnreachable)
+        if scripted is not None:
+            return scripted
+        for i, waypoint in enumerate(waypoints):
+            if self._near(waypoint, self.unreachable_waypoints):
+                return ProbeResult(False, ManipulationPoseUnreachable(), index=i)
+        return ProbeResult(True)
+
+    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
+        self.probe_calls["stability"].append((object_type, pose))
+        scripted = self._probe_failure("stability", HighLevelFailure)
+        if scripted is not None:
+            return scripted
+        unstable = [self._express(p, "map") for p in self.unstable_poses]
+        if self._near(self._express(pose, "map"), unstable):
+            return ProbeResult(False, HighLevelFailure("Pose unstable"))
+        return ProbeResult(True)
+
     def handle_event(self, event: Event) -> None:
         self.events.append(event)
         if isinstance(event, ObjectAttached):
-            self._object(object_name(event.object)).attached_to = (event.arm, event.link)
+            name = object_name(event.object)
+            obj = self._object(name)
+            if event.link in self.links:
+                link = self.link_pose(event.link, "map").to_transform()
+                self._held[name] = link.inverse() * self.object_pose(name, "map").to_transform()
+            obj.attached_to = (event.arm, event.link)
         elif isinstance(event, ObjectDetached):
-            self._object(object_name(event.object)).attached_to = None
+            name = object_name(event.object)
+            obj = self._object(name)
+            if name in self._held:
+                obj.pose = self.object_pose(name, "map")
+                del self._held[name]
+            obj.attached_to = None
         elif isinstance(event, ContainerOpened):
             name = object_name(event.container)
             self.joint_states[name] = self.joint_states.get(name, 0.0) + event.distance

@@ -1,3 +1,32 @@
 """The robot's know-how as async plans: atomic actions, pick and place, search / fetch /
 deliver / transport, and the table-setting demo. Depends on :mod:`executive` and :mod:`cpl`
 only, never on :mod:`projection` internals."""
+
+from . import atomic, environment, fetch_deliver, pick_place
+from ._common import CountedRetries, retry_ledger
+from .checks import (
+    PlacingPoseUnstable,
+    check_environment_manipulation_collisions,
+    check_navigating_collisions,
+    check_picking_up_collisions,
+    check_placing_collisions,
+    check_placing_pose_stability,
+)
+from .demo import ObjectOutcome, table_setting
+
+__all__ = [
+    "CountedRetries",
+    "ObjectOutcome",
+    "PlacingPoseUnstable",
+    "atomic",
+    "check_environment_manipulation_collisions",
+    "check_navigating_collisions",
+    "check_picking_up_collisions",
+    "check_placing_collisions",
+    "check_placing_pose_stability",
+    "environment",
+    "fetch_deliver",
+    "pick_place",
+    "retry_ledger",
+    "table_setting",
+]

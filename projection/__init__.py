@@ -9,6 +9,10 @@ the kitchen and an object registry, with CRAM's low-level functions as methods: 
 ``snapshot``/``restore``, collision helpers and ``placing_pose_stable``. Each raises the
 typed failure of :mod:`executive.failures` and leaves the world unchanged on failure.
 
+``async with with_projected_robot(world):`` runs a block with the six projection process
+modules, a :class:`ProjectedWorldModel` (the belief state and the projection probes) and
+the costmap location rules; :mod:`projection.render` draws scenes and costmaps as PNGs.
+
 Assets (``projection/assets``: ``pr2.urdf``, ``kitchen.urdf``, ``objects/*.urdf``) are
 generated from the parameter tables in ``projection._urdf`` (``python -m
 projection._urdf``); object types live in ``projection._objects``, grasps in
@@ -18,17 +22,55 @@ PyBullet is only touched when a :class:`World` is built.
 
 from __future__ import annotations
 
+import importlib
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-__all__ = ["World"]
+# Public name -> module defining it; imported on first access, so importing this package
+# imports neither PyBullet nor Pillow.
+_EXPORTS = MappingProxyType(
+    {
+        "World": "projection._world",
+        "ProjectedWorldModel": "projection._world_model",
+        "with_projected_robot": "projection._environment",
+        "render": "projection.render",
+    }
+)
+
+__all__ = ["ProjectedWorldModel", "World", "render", "with_projected_robot"]
 
 if TYPE_CHECKING:
+    from projection import render
+    from projection._environment import with_projected_robot
     from projection._world import World
+    from projection._world_model import ProjectedWorldModel
 
 
 def __getattr__(name: str) -> Any:
-    if name == "World":
-        from projection._world import World
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'projection' has no attribute {name!r}")
+    if name == "render":
+        return importlib.import_module(module)
+    return getattr(importlib.import_module(module), name)
 
-        return World
-    raise AttributeError(f"module 'projection' has no attribute {name!r}")
+
+# The simulated real robot (projection._real_robot): appended to the lazy exports.
+_REAL_ROBOT = (
+    "FaultProfile",
+    "RealWorldModel",
+    "make_world_pair",
+    "real_robot_clock",
+    "with_real_robot",
+)
+_EXPORTS = MappingProxyType({**_EXPORTS, **dict.fromkeys(_REAL_ROBOT, "projection._real_robot")})
+__all__ += list(_REAL_ROBOT)
+
+if TYPE_CHECKING:
+    from projection._real_robot import (
+        FaultProfile,
+        RealWorldModel,
+        make_world_pair,
+        real_robot_clock,
+        with_real_robot,
+    )

@@ -325,3 +325,27 @@ def test_instrument_that_raises_is_removed(mrun, caplog):
     assert cpl.run(main, clock=MockClock(), instruments=[Bad()]) == "fine"
     assert Bad.calls == 1
     assert "removed" in caplog.text
+
+
+def test_plan_argument_binding_matches_signature_bind():
+    import inspect
+
+    async def f(a, b=2, c=3):
+        return a
+
+    async def g(a, *rest, key=None, **more):
+        return a
+
+    for fn, calls in (
+        (f, [((1,), {}), ((1, 5), {}), ((1,), {"c": 9}), ((), {"a": 1, "b": 0})]),
+        (g, [((1, 2, 3), {"key": 4}), ((1,), {"x": 5})]),
+    ):
+        p = cpl.plan(fn)
+        for args, kwargs in calls:
+            expected = inspect.signature(fn).bind(*args, **kwargs)
+            expected.apply_defaults()
+            assert p.bind(args, kwargs) == dict(expected.arguments)
+    p = cpl.plan(f)
+    for bad_args, bad_kwargs in (((), {}), ((1,), {"a": 1}), ((1,), {"zz": 1}), ((1, 2, 3, 4), {})):
+        with pytest.raises(TypeError, match="plan 'f'"):
+            p.bind(bad_args, bad_kwargs)

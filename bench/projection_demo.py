@@ -1,0 +1,57 @@
+"""Median wall time of one bowl transport and of the full five-object table-setting demo
+in projection, over several seeds (targets: bowl <= 0.3 s, full demo <= 2 s).
+
+    python bench/projection_demo.py [--seeds 5] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import logging
+import pstats
+import statistics
+import time
+
+import cpl
+import plans
+import projection
+from cpl.testing import MockClock
+
+
+def run_demo(seed: int, objects: tuple[str, ...]) -> tuple[float, int]:
+    world = projection.World(seed=seed)
+
+    async def main() -> dict[str, plans.ObjectOutcome]:
+        async with projection.with_projected_robot(world):
+            return await plans.table_setting(world, objects, True, seed)
+
+    start = time.perf_counter()
+    outcomes = cpl.run(main, clock=MockClock())
+    elapsed = time.perf_counter() - start
+    world.close()
+    return elapsed, sum(o.success for o in outcomes.values())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--profile", action="store_true")
+    args = parser.parse_args()
+    logging.getLogger("executive.retry").setLevel(logging.ERROR)
+    for label, objects in (("bowl transport", ("bowl",)), ("full demo", plans.demo.OBJECTS)):
+        runs = [run_demo(seed, objects) for seed in range(1, args.seeds + 1)]
+        times = [t for t, _ in runs]
+        print(
+            f"{label:15s} median {statistics.median(times):.3f} s  "
+            f"min {min(times):.3f}  max {max(times):.3f}  "
+            f"delivered {[n for _, n in runs]} of {len(objects)}"
+        )
+    if args.profile:
+        profiler = cProfile.Profile()
+        profiler.runcall(run_demo, 1, plans.demo.OBJECTS)
+        pstats.Stats(profiler).sort_stats("cumulative").print_stats(25)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,141 @@
+"""Small helpers shared by the plan modules: failure-handling idioms that CRAM writes
+inline (``(return)`` handlers, ``designator-error`` translation), arm/link names, frame
+conversion through the world model, and the per-run retry ledger the demo reads."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Awaitable, Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import Any
+
+import cpl
+import executive
+from executive import (
+    DesignatorError,
+    LocationDesignator,
+    ObjectDesignator,
+    Pose,
+    a,
+    current_environment,
+    perform,
+)
+
+__all__ = [
+    "ARM_PREFIX",
+    "CountedRetries",
+    "as_location",
+    "ignoring",
+    "object_label",
+    "perform_ignoring",
+    "retry_ledger",
+    "to_base",
+    "tool_frame",
+    "translating_designator_errors",
+    "wrist_link",
+]
+
+ARM_PREFIX = {"left": "l", "right": "r"}
+
+#: Where :class:`CountedRetries` report the retries they grant (by kind), if anyone asks:
+#: :func:`retry_ledger` binds a fresh counter for a block (the demo does, per object).
+_LEDGER: ContextVar[Counter[str] | None] = ContextVar("plans_retry_ledger", default=None)
+
+
+class CountedRetries(cpl.RetryCounter):
+    """A :class:`cpl.RetryCounter` whose granted retries are also tallied, under its
+    ``name``, in the ledger of the running context (see :func:`retry_ledger`)."""
+
+    __slots__ = ()
+
+    def do_retry(self) -> bool:
+        granted = super().do_retry()
+        ledger = _LEDGER.get()
+        if granted and ledger is not None:
+            ledger[self.name or "retries"] += 1
+        return granted
+
+
+@contextmanager
+def retry_ledger() -> Iterator[Counter[str]]:
+    """Tally the retries granted by :class:`CountedRetries` in this block (and in the
+    tasks it spawns, which copy the context) into the yielded ``Counter``."""
+    ledger: Counter[str] = Counter()
+    token = _LEDGER.set(ledger)
+    try:
+        yield ledger
+    finally:
+        _LEDGER.reset(token)
+
+
+def tool_frame(arm: str) -> str:
+    return f"{ARM_PREFIX[arm]}_gripper_tool_frame"
+
+
+def wrist_link(arm: str) -> str:
+    """CRAM's end-effector link (objects are attached to it)."""
+    return f"{ARM_PREFIX[arm]}_wrist_roll_link"
+
+
+async def perform_ignoring(
+    designator: executive.Designator, failures: type[Exception] | tuple[type[Exception], ...]
+) -> Any:
+    """Perform ``designator``; a failure of type ``failures`` is swallowed (CRAM's handler
+    ``(return)``) and ``None`` returned."""
+    return await ignoring(lambda: perform(designator), failures)
+
+
+async def ignoring(
+    body: Callable[[], Awaitable[Any]],
+    failures: type[Exception] | tuple[type[Exception], ...],
+) -> Any:
+    """Run ``body()``; a failure of type ``failures`` is swallowed and ``None`` returned."""
+    return await cpl.with_failure_handling(body, [(failures, lambda _f: cpl.return_(None))])
+
+
+async def translating_designator_errors(
+    body: Callable[[], Awaitable[Any]], into: Callable[[BaseException], BaseException]
+) -> Any:
+    """Run ``body()``; a ``designator-error`` leaving it becomes ``into(error)`` (chained):
+    CRAM's translation of designator errors at every plan boundary."""
+
+    def translate(error: BaseException) -> None:
+        raise into(error) from error
+
+    return await cpl.with_failure_handling(body, [(DesignatorError, translate)])
+
+
+def as_location(target: Any) -> LocationDesignator:
+    """A location designator for a pose (``(pose P)``), or the newest member of a given
+    location designator's chain."""
+    if isinstance(target, LocationDesignator):
+        return target.current()  # type: ignore[return-value]
+    if isinstance(target, Pose):
+        return a.location(pose=target)
+    raise DesignatorError(f"expected a location designator or a Pose, got {target!r}", target)
+
+
+def to_base(pose: Pose) -> Pose:
+    """``pose`` in ``base_footprint`` at the robot's current pose (world model)."""
+    if pose.frame == "base_footprint":
+        return pose
+    if pose.frame != "map":
+        raise DesignatorError(f"poses are given in map or base_footprint, not {pose.frame!r}")
+    robot = current_environment().world.robot_pose().to_transform("base_footprint")
+    result: Pose = robot.inverse() * pose
+    return result
+
+
+def to_map(pose: Pose) -> Pose:
+    """``pose`` in ``map`` (a ``base_footprint`` pose is taken at the robot's pose now)."""
+    if pose.frame == "map":
+        return pose
+    robot = current_environment().world.robot_pose().to_transform("base_footprint")
+    result: Pose = robot * pose
+    return result
+
+
+def object_label(obj: Any) -> Any:
+    """The newest member of an object designator's chain (what failures report)."""
+    return obj.current() if isinstance(obj, ObjectDesignator) else obj

@@ -1,0 +1,369 @@
+"""Atomic actions (CRAM's ``cram_mobile_pick_place_plans/src/atomic-action-*.lisp``): each
+action type resolves, through a static rule, to one plan that performs motions and handles
+the failures CRAM HEAD handles there.
+
+============================  ==========================  =================================
+action type                   plan                        failures
+============================  ==========================  =================================
+going (target | pose)         go-to-target                navigation low-level: 0 retries
+looking (target | pose |      look-at                     ptu low-level: 0 retries (HEAD)
+  frame | direction | object)
+detecting (object)            perceive                    perception low-level: 4 retries
+                                                          (1 with a cad-model)
+moving-torso (joint-angle)    move-torso                  propagate
+reaching, retracting,         move-arms-in-sequence       manipulation low-level ignored at
+lifting, grasping, putting,                               intermediate waypoints; the last
+pulling, pushing                                          waypoint's failure propagates
+positioning-arm               position-arms               manipulation low-level ignored
+gripping (gripper, effort?)   grip                        gripper low-level: 1 retry
+releasing (gripper)           release                     gripper low-level ignored
+opening-gripper,              open-or-close-gripper       gripper low-level ignored
+closing-gripper, opening /
+closing with a gripper
+setting-gripper               set-gripper-to-position     gripper low-level ignored
+============================  ==========================  =================================
+
+Every plan is evaporation-safe: it holds no resources, and ``going`` emits its
+``RobotStateChanged`` in a ``finally`` (CRAM's ``unwind-protect``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from itertools import zip_longest
+from typing import Any
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    GripperLowLevelFailure,
+    ManipulationLowLevelFailure,
+    NavigationLowLevelFailure,
+    ObjectDesignator,
+    PerceptionLowLevelFailure,
+    Pose,
+    PtuLowLevelFailure,
+    a,
+    an,
+    emit,
+    equate,
+    knowledge,
+    perform,
+    rule,
+)
+from executive.events import ObjectPerceived, RobotStateChanged
+
+from ._common import CountedRetries, as_location, perform_ignoring
+
+__all__ = [
+    "go_to_target",
+    "grip",
+    "look_at",
+    "move_arms_in_sequence",
+    "move_torso",
+    "open_or_close_gripper",
+    "park_arms",
+    "perceive",
+    "position_arms",
+    "release",
+    "set_gripper_to_position",
+]
+
+
+# ----------------------------------------------------------------------------- helpers
+def _arm(d: Designator, key: str = "arm", default: str | None = None) -> str:
+    value = d.get(key, default)
+    if value not in knowledge.ARMS:
+        raise DesignatorError(f"{d.short()}: {key} must be one of {knowledge.ARMS}, got {value!r}")
+    return str(value)
+
+
+def _gripper(d: Designator) -> Any:
+    value = d.get("gripper")
+    grippers = value if isinstance(value, tuple) else (value,)
+    if not grippers or any(g not in knowledge.ARMS for g in grippers):
+        raise DesignatorError(f"{d.short()} needs gripper 'left', 'right' or both, got {value!r}")
+    return value
+
+
+def _poses(d: Designator, key: str) -> tuple[Pose, ...]:
+    value = d.get(key, ())
+    values = value if isinstance(value, tuple) else (value,)
+    if not all(isinstance(p, Pose) for p in values):
+        raise DesignatorError(f"{d.short()}: {key} must be a list of poses, got {value!r}")
+    return values
+
+
+# -------------------------------------------------------------------------------- going
+@cpl.plan(name="go-to-target")
+async def go_to_target(target: Any) -> None:
+    """Perform the ``going`` motion to ``target`` (a location designator or a pose).
+
+    Handles ``navigation-low-level-failure`` with a counter of 0 (CRAM HEAD), so it always
+    propagates. Emits ``RobotStateChanged`` whatever happens (also on evaporation)."""
+    motion = a.motion(type="going", target=as_location(target))
+    try:
+        await cpl.with_retry(
+            lambda: perform(motion),
+            on=NavigationLowLevelFailure,
+            counter=CountedRetries(0, "going"),
+        )
+    finally:
+        emit(RobotStateChanged(reason="going"))
+
+
+@rule("action", "going")
+def _going(d: Designator) -> Iterator[Any]:
+    target = d.get("target", d.get("pose"))
+    if target is None:
+        raise DesignatorError(f"{d.short()} needs a target (location designator or pose)", d)
+    yield go_to_target, {"target": target}
+
+
+# ------------------------------------------------------------------------------ looking
+@cpl.plan(name="look-at")
+async def look_at(motion: Designator) -> None:
+    """Perform the ``looking`` motion.
+
+    Quirk kept: CRAM HEAD declares one retry on ``ptu-low-level-failure`` but its handler
+    body is empty, so PTU failures propagate: 0 effective retries, written as a visible
+    counter of 0. Retrying the same goal could not succeed (the pan/tilt limits do not
+    change); ``turning-towards`` owns the working recovery (turn the base, look again)."""
+    await cpl.with_retry(
+        lambda: perform(motion), on=PtuLowLevelFailure, counter=CountedRetries(0, "looking")
+    )
+
+
+@rule("action", "looking")
+def _looking(d: Designator) -> Iterator[Any]:
+    props: dict[str, Any] = {}
+    for key in ("target", "pose"):
+        if d.get(key) is not None:
+            props["target"] = as_location(d.get(key))
+            break
+    else:
+        for key in ("object", "frame", "direction"):
+            if d.get(key) is not None:
+                props[key] = d.get(key)
+                break
+    if not props:
+        raise DesignatorError(f"{d.short()} needs target, pose, object, frame or direction", d)
+    yield look_at, {"motion": a.motion(type="looking", **props)}
+
+
+# ---------------------------------------------------------------------------- detecting
+def _as_designator(wanted: ObjectDesignator, result: Any) -> ObjectDesignator:
+    """The perception result as an object designator (process modules may return a
+    designator, a list of them, or perceived-object data)."""
+    if isinstance(result, (list, tuple)) and result:
+        result = result[0]
+    if isinstance(result, ObjectDesignator):
+        return result
+    pose = getattr(result, "pose", None)
+    if not isinstance(pose, Pose):
+        raise DesignatorError(f"perception returned no pose for {wanted.short()}: {result!r}")
+    return wanted.copy(  # type: ignore[return-value]
+        name=getattr(result, "name", None) or wanted.get("name"),
+        type=getattr(result, "type", None) or wanted.type,
+        pose=getattr(result, "map_pose", pose),
+        transform=getattr(result, "transform", None),
+    )
+
+
+@cpl.plan(name="perceive")
+async def perceive(object_designator: ObjectDesignator) -> ObjectDesignator:
+    """Perform the ``detecting`` motion for the object.
+
+    Retries ``perception-low-level-failure`` 4 times (once if the object has a
+    ``cad-model``), then lets it propagate. Emits ``ObjectPerceived``, equates the input
+    designator to the result and returns the result."""
+    retries = CountedRetries(1 if "cad-model" in object_designator else 4, "detecting")
+    motion = a.motion(type="detecting", object=object_designator)
+    result = await cpl.with_retry(
+        lambda: perform(motion), on=PerceptionLowLevelFailure, counter=retries
+    )
+    perceived = _as_designator(object_designator, result)
+    equate(object_designator, perceived)
+    emit(ObjectPerceived(perceived))
+    return perceived
+
+
+@rule("action", "detecting")
+def _detecting(d: Designator) -> Iterator[Any]:
+    obj = d.get("object")
+    if not isinstance(obj, ObjectDesignator):
+        raise DesignatorError(f"{d.short()} needs an object designator", d)
+    yield perceive, {"object_designator": obj}
+
+
+# -------------------------------------------------------------------------------- torso
+@cpl.plan(name="move-torso")
+async def move_torso(joint_angle: float) -> None:
+    """Perform ``moving-torso``; torso failures (manipulation low-level) propagate."""
+    await perform(a.motion(type="moving-torso", joint_angle=joint_angle))
+
+
+@rule("action", "moving-torso")
+def _moving_torso(d: Designator) -> Iterator[Any]:
+    angle = d.get("joint-angle")
+    if not isinstance(angle, (int, float)):
+        raise DesignatorError(f"{d.short()} needs a joint-angle (a number)", d)
+    yield move_torso, {"joint_angle": float(angle)}
+
+
+# ----------------------------------------------------------------------------- arm moves
+@cpl.plan(name="move-arms-in-sequence")
+async def move_arms_in_sequence(
+    left_poses: Sequence[Pose], right_poses: Sequence[Pose], collision_mode: str | None = None
+) -> None:
+    """Perform ``moving-tcp`` through the waypoint pairs (the shorter list padded with
+    ``None``: that arm stays). Manipulation low-level failures at intermediate waypoints
+    are ignored; at the last waypoint they propagate."""
+    pairs = [(lp, rp) for lp, rp in zip_longest(left_poses, right_poses) if lp or rp]
+    for i, (lp, rp) in enumerate(pairs):
+        motion = a.motion(
+            type="moving-tcp", left_pose=lp, right_pose=rp, collision_mode=collision_mode
+        )
+        if i < len(pairs) - 1:
+            await perform_ignoring(motion, ManipulationLowLevelFailure)
+        else:
+            await perform(motion)
+
+
+_COLLISION_MODES = {
+    "reaching": None,
+    "retracting": None,
+    "lifting": "allow-hand",
+    "grasping": "allow-all",
+    "putting": "allow-all",
+    "pulling": "allow-all",
+    "pushing": "allow-all",
+}
+
+
+def _arm_motion_rule(action_type: str) -> Any:
+    def ground(d: Designator) -> Iterator[Any]:
+        yield (
+            move_arms_in_sequence,
+            {
+                "left_poses": _poses(d, "left-poses"),
+                "right_poses": _poses(d, "right-poses"),
+                "collision_mode": _COLLISION_MODES[action_type],
+            },
+        )
+
+    ground.__name__ = ground.__qualname__ = action_type.replace("-", "_")
+    return ground
+
+
+for _action_type in _COLLISION_MODES:
+    rule("action", _action_type)(_arm_motion_rule(_action_type))
+
+
+@cpl.plan(name="position-arms")
+async def position_arms(left: tuple[float, ...] | None, right: tuple[float, ...] | None) -> None:
+    """Perform ``moving-arm-joints``; manipulation low-level failures are ignored."""
+    motion = a.motion(type="moving-arm-joints", left_joint_states=left, right_joint_states=right)
+    await perform_ignoring(motion, ManipulationLowLevelFailure)
+
+
+def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
+    value = d.get(f"{arm}-configuration")
+    if value is None or isinstance(value, tuple):
+        return value
+    try:
+        return knowledge.arm_configuration(str(value), arm)
+    except LookupError as exc:
+        raise DesignatorError(f"{d.short()}: {exc}", d) from None
+
+
+@rule("action", "positioning-arm")
+def _positioning_arm(d: Designator) -> Iterator[Any]:
+    left, right = _configuration(d, "left"), _configuration(d, "right")
+    if left is None and right is None:
+        raise DesignatorError(
+            f"{d.short()} needs left-configuration and/or right-configuration ('park', "
+            "'carry' or 7 joint values)",
+            d,
+        )
+    yield position_arms, {"left": left, "right": right}
+
+
+async def park_arms(configuration: str = "carry") -> None:
+    """Both arms to a named configuration (CRAM's ``park-arms``). The default is
+    ``carry``: CRAM HEAD's ``:carry t`` default (quirk kept); pass ``"park"`` for the arms
+    at the sides. Failures are ignored (by ``position-arms``)."""
+    await perform(
+        an.action(
+            type="positioning-arm",
+            left_configuration=configuration,
+            right_configuration=configuration,
+        )
+    )
+
+
+# ------------------------------------------------------------------------------ grippers
+@cpl.plan(name="grip")
+async def grip(gripper: Any, effort: float | None = None) -> None:
+    """Perform ``gripping``; retries a ``gripper-low-level-failure`` once, then lets it
+    propagate."""
+    motion = a.motion(type="gripping", gripper=gripper, effort=effort)
+    await cpl.with_retry(
+        lambda: perform(motion), on=GripperLowLevelFailure, counter=CountedRetries(1, "regrips")
+    )
+
+
+@rule("action", "gripping")
+def _gripping(d: Designator) -> Iterator[Any]:
+    effort = d.get("effort")
+    yield grip, {"gripper": _gripper(d), "effort": None if effort is None else float(effort)}
+
+
+@cpl.plan(name="release")
+async def release(gripper: Any) -> None:
+    """Open the gripper; gripper failures are ignored."""
+    await perform_ignoring(
+        a.motion(type="opening-gripper", gripper=gripper), GripperLowLevelFailure
+    )
+
+
+@rule("action", "releasing")
+def _releasing(d: Designator) -> Iterator[Any]:
+    yield release, {"gripper": _gripper(d)}
+
+
+@cpl.plan(name="open-or-close-gripper")
+async def open_or_close_gripper(gripper: Any, action_type: str) -> None:
+    """Open or close the gripper; gripper failures are ignored."""
+    motion = a.motion(type=f"{action_type}-gripper", gripper=gripper)
+    await perform_ignoring(motion, GripperLowLevelFailure)
+
+
+def _open_close_rule(action_type: str) -> Any:
+    def ground(d: Designator) -> Iterator[Any]:
+        if d.get("gripper") is not None:
+            yield open_or_close_gripper, {"gripper": _gripper(d), "action_type": action_type}
+
+    ground.__name__ = ground.__qualname__ = f"{action_type}_gripper"
+    return ground
+
+
+for _verb in ("opening", "closing"):
+    rule("action", f"{_verb}-gripper")(_open_close_rule(_verb))
+    rule("action", _verb)(_open_close_rule(_verb))
+
+
+@cpl.plan(name="set-gripper-to-position")
+async def set_gripper_to_position(gripper: Any, position: float) -> None:
+    """Perform ``moving-gripper-joint``; gripper failures are ignored."""
+    motion = a.motion(type="moving-gripper-joint", gripper=gripper, joint_angle=position)
+    await perform_ignoring(motion, GripperLowLevelFailure)
+
+
+@rule("action", "setting-gripper")
+def _setting_gripper(d: Designator) -> Iterator[Any]:
+    position = d.get("position")
+    if not isinstance(position, (int, float)):
+        raise DesignatorError(f"{d.short()} needs a position (metres)", d)
+    yield set_gripper_to_position, {"gripper": _gripper(d), "position": float(position)}

@@ -1,0 +1,179 @@
+"""CRAM's projection checks (``check-collisions.lisp``), on the world model only.
+
+Each asks the current environment's world model (a :class:`executive.ProjectionWorld`)
+to imagine a motion; the world is left as it was. The navigation and picking-up checks
+inject their choice into the designator chain with ``next_solution`` (the caller re-reads
+``current()``), as CRAM does. They are plain functions (no motion is performed), so
+evaporation cannot interrupt them half-way.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any, cast
+
+from executive import (
+    ActionDesignator,
+    Designator,
+    DesignatorError,
+    EnvironmentUnreachable,
+    HighLevelFailure,
+    LocationDesignator,
+    NavigationGoalInCollision,
+    ObjectUnreachable,
+    Pose,
+    ProbeResult,
+    ProjectionWorld,
+    current_environment,
+)
+from executive.events import object_name
+
+__all__ = [
+    "PlacingPoseUnstable",
+    "check_environment_manipulation_collisions",
+    "check_navigating_collisions",
+    "check_picking_up_collisions",
+    "check_placing_collisions",
+    "check_placing_pose_stability",
+]
+
+log = logging.getLogger("plans.checks")
+
+
+class PlacingPoseUnstable(HighLevelFailure):
+    """v0.8.1's "Pose unstable" high-level failure of ``check-placing-pose-stability``."""
+
+    cram_name = "high-level-failure"
+    default_message = "Pose unstable."
+
+
+def _world() -> ProjectionWorld:
+    world = current_environment().world
+    if not isinstance(world, ProjectionWorld):
+        raise TypeError(f"the projection checks need a ProjectionWorld, got {world!r}")
+    return world
+
+
+def _failure(result: ProbeResult) -> str:
+    return f"{type(result.failure).__name__} at waypoint {result.index}: {result.failure}"
+
+
+def check_navigating_collisions(location: LocationDesignator, samples: int = 30) -> Designator:
+    """Probe the base poses of ``location``'s chain (from its newest member) until one is
+    collision-free; returns that member (CRAM: up to 30 samples, ``next-solution``).
+
+    Raises ``NavigationGoalInCollision`` when no sample is free within ``samples`` tries,
+    the samples run out, or the designator cannot be resolved."""
+    world = _world()
+    current: Designator | None = location.current()
+    tried = 0
+    try:
+        while current is not None:
+            pose = current.reference()
+            result = world.probe_base_pose(pose)
+            if result.ok:
+                return current
+            tried += 1
+            log.info("base pose %r in collision (%s)", pose, result.failure)
+            if tried > samples:
+                break
+            current = current.next_solution()
+    except DesignatorError as error:
+        raise NavigationGoalInCollision(str(error)) from error
+    raise NavigationGoalInCollision(f"no collision-free pose for {location.short()}")
+
+
+def _pick_arguments(action: Designator) -> dict[str, Any]:
+    return dict(cast(Any, action.reference()).arguments)
+
+
+def check_picking_up_collisions(action: ActionDesignator, retries: int = 30) -> Designator:
+    """Probe the ``picking-up`` solutions (arm, grasp), from the newest one, until the
+    whole trajectory (reach, grasp, lift) is reachable and touches nothing but the target
+    object; returns that member of the chain. No solution within ``retries`` next
+    solutions, or a designator error -> ``ObjectUnreachable``."""
+    world = _world()
+    current: Designator | None = action.current()
+    used = 0
+    obj: Any = None
+    try:
+        while current is not None:
+            args = _pick_arguments(current)
+            obj = args["object_designator"]
+            waypoints = [*args["reach_poses"], *args["grasp_poses"], *args["lift_poses"]]
+            result = world.probe_arm_trajectory(
+                args["arm"],
+                waypoints,
+                gripper_opening=args["opening"],
+                allowed_contacts=(object_name(obj),),
+            )
+            if result.ok:
+                return current
+            log.info("picking up with %s/%s: %s", args["arm"], args["grasp"], _failure(result))
+            used += 1
+            if used > retries:
+                break
+            current = current.next_solution()
+    except DesignatorError as error:
+        raise ObjectUnreachable(str(error), object=obj) from error
+    raise ObjectUnreachable(f"no reachable picking-up solution for {action.short()}", object=obj)
+
+
+def check_placing_collisions(action: ActionDesignator) -> Designator:
+    """Probe the ``placing`` trajectory: IK for every waypoint; collisions at the reach
+    and retract waypoints (v0.8.1; HEAD only logged collisions, a quirk fixed here), the
+    put waypoint is IK-only (the object touches its support there). No ``next_solution``
+    iteration (HEAD): the deliver plan's target loop retries. Failure or designator error
+    -> ``ObjectUnreachable``. Returns the newest member of the chain."""
+    world = _world()
+    current = action.current()
+    obj: Any = None
+    try:
+        args = dict(cast(Any, current.reference()).arguments)
+        obj = args["object_designator"]
+        waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
+        checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
+        checks += [True] * len(args["retract_poses"])
+        result = world.probe_arm_trajectory(
+            args["arm"], waypoints, allowed_contacts=(object_name(obj),), check_collisions=checks
+        )
+    except DesignatorError as error:
+        raise ObjectUnreachable(str(error), object=obj) from error
+    if not result.ok:
+        raise ObjectUnreachable(f"placing: {_failure(result)}", object=obj) from result.failure
+    return current
+
+
+def check_placing_pose_stability(object_type: str, pose: Pose) -> None:
+    """v0.8.1's stability check: would an object of ``object_type`` stay at ``pose`` (in
+    ``map``)? Unstable -> :class:`PlacingPoseUnstable` (a high-level failure)."""
+    result = _world().probe_placing_stability(object_type, pose)
+    if not result.ok:
+        raise PlacingPoseUnstable(
+            f"a {object_type} at {pose!r} is unstable: {result.failure}"
+        ) from result.failure
+
+
+def check_environment_manipulation_collisions(
+    action: ActionDesignator, allowed_contacts: tuple[str, ...] = ()
+) -> Designator:
+    """Probe an ``opening``/``closing`` (container) trajectory: IK for every waypoint;
+    for opening, collisions too (except with ``allowed_contacts``, e.g. the handle and
+    drawer links). Failure or designator error -> ``EnvironmentUnreachable``. Returns the
+    newest member of the chain."""
+    world = _world()
+    current = action.current()
+    try:
+        args = dict(cast(Any, current.reference()).arguments)
+        waypoints = args["waypoints"]
+        result = world.probe_arm_trajectory(
+            args["arm"],
+            waypoints,
+            allowed_contacts=allowed_contacts,
+            check_collisions=args["opening"],
+        )
+    except DesignatorError as error:
+        raise EnvironmentUnreachable(str(error)) from error
+    if not result.ok:
+        raise EnvironmentUnreachable(f"{current.short()}: {_failure(result)}") from result.failure
+    return current

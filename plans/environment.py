@@ -1,0 +1,148 @@
+"""Opening and closing containers (CRAM's ``cram_pr2_environment_manipulation``).
+
+``opening``/``closing (object C) (arm A)? (distance d)?`` for a drawer designator ``C``
+(``urdf-name`` of its main link, e.g. ``sink_area_left_upper_drawer_main``): the gripper
+takes the handle link (the ``_main`` suffix replaced by ``_handle``; its pose from the
+world model's ``link_pose``) approaching along the handle frame's +x axis, and the drawer
+opens along the handle frame's -x axis. Waypoints, in ``base_footprint`` when the action
+is referenced (after navigating): pregrasp (0.10 m before the handle), grasp, the handle
+moved by the distance (pulled or pushed), and a retreat 0.10 m further.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    GripperLowLevelFailure,
+    ManipulationLowLevelFailure,
+    ObjectDesignator,
+    Pose,
+    Transform,
+    an,
+    current_environment,
+    emit,
+    knowledge,
+    perform,
+    rule,
+)
+from executive.events import ContainerClosed, ContainerOpened
+
+from ._common import perform_ignoring
+
+__all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
+
+#: How far accessing/sealing move a drawer (CRAM's demo: 0.3 m).
+DEFAULT_DISTANCE = 0.3
+_PREGRASP = 0.10
+_HANDLE_GRIPPER = np.array(knowledge.STANDARD_ROTATIONS["back"]) @ np.array(
+    knowledge.STANDARD_TO_PR2_ROTATION
+)
+
+
+def handle_link(container: Designator) -> str:
+    """The handle link of a drawer designator (``..._main`` -> ``..._handle``)."""
+    name = container.get("urdf-name")
+    if not isinstance(name, str):
+        raise DesignatorError(f"{container.short()} needs a urdf-name (its main link)", container)
+    return name.removesuffix("_main") + "_handle"
+
+
+def _arm(d: Designator, action_type: str) -> str:
+    arm = d.get("arm", "left")
+    if arm not in knowledge.ARMS:
+        raise DesignatorError(f"{d.short()}: arm must be one of {knowledge.ARMS}", d)
+    return str(arm)
+
+
+def _waypoints(handle: Pose, opening: bool, distance: float) -> tuple[Pose, ...]:
+    sign = -1.0 if opening else 1.0
+    b_t_h = handle.matrix()
+    out = []
+    for offset in (-_PREGRASP, 0.0, sign * distance, sign * distance - _PREGRASP):
+        m = np.eye(4)
+        m[:3, :3] = _HANDLE_GRIPPER
+        m[0, 3] = offset
+        out.append(Transform.from_matrix(b_t_h @ m, handle.frame).to_pose())
+    return tuple(out)
+
+
+def _arm_action(action_type: str, arm: str, poses: Sequence[Pose]) -> Designator:
+    return an.action(type=action_type, **{f"{arm}_poses": tuple(poses)})
+
+
+@cpl.plan(name="open-container")
+async def open_container(
+    container: ObjectDesignator, arm: str, distance: float, waypoints: Sequence[Pose], opening: bool
+) -> None:
+    """Open the drawer: par(set the gripper open, reach the pregrasp); grasp the handle;
+    close the gripper; pull; ``ContainerOpened(container, distance)``; release; retract.
+
+    Reach and grasp failures propagate (manipulation low-level); closing, pull, release
+    and retract failures are ignored. Deliberate difference from CRAM's ``gripping``: the
+    projection's grip test only counts contacts with items, not kitchen links, so a
+    ``gripping`` of the handle always fails there."""
+    pre, at, pulled, away = waypoints
+    await cpl.par(
+        cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=0.1))),
+        cpl.tag("reach", perform(_arm_action("reaching", arm, [pre]))),
+    )
+    await perform(_arm_action("grasping", arm, [at]))
+    await perform_ignoring(an.action(type="closing-gripper", gripper=arm), GripperLowLevelFailure)
+    await perform_ignoring(_arm_action("pulling", arm, [pulled]), ManipulationLowLevelFailure)
+    emit(ContainerOpened(container, distance))
+    await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
+    await perform_ignoring(_arm_action("retracting", arm, [away]), ManipulationLowLevelFailure)
+
+
+@cpl.plan(name="close-container")
+async def close_container(
+    container: ObjectDesignator, arm: str, distance: float, waypoints: Sequence[Pose], opening: bool
+) -> None:
+    """Close the drawer: reach the pregrasp (propagates); touch the handle (propagates);
+    push (ignored); ``ContainerClosed(container, distance)``; retract (ignored). No grip,
+    as in CRAM."""
+    pre, at, pushed, away = waypoints
+    await perform(_arm_action("reaching", arm, [pre]))
+    await perform(_arm_action("grasping", arm, [at]))
+    await perform_ignoring(_arm_action("pushing", arm, [pushed]), ManipulationLowLevelFailure)
+    emit(ContainerClosed(container, distance))
+    await perform_ignoring(_arm_action("retracting", arm, [away]), ManipulationLowLevelFailure)
+
+
+def _container_rule(action_type: str) -> Any:
+    opening = action_type == "opening"
+
+    def ground(d: Designator) -> Iterator[Any]:
+        container = d.get("object")
+        if not isinstance(container, ObjectDesignator):
+            return
+        distance = float(d.get("distance", DEFAULT_DISTANCE))
+        link = handle_link(container)
+        try:
+            handle = current_environment().world.link_pose(link, "base_footprint")  # type: ignore[attr-defined]
+        except LookupError as exc:
+            raise DesignatorError(f"{d.short()}: {exc}", d) from None
+        yield (
+            open_container if opening else close_container,
+            {
+                "container": container,
+                "arm": _arm(d, action_type),
+                "distance": distance,
+                "waypoints": _waypoints(handle, opening, distance),
+                "opening": opening,
+            },
+        )
+
+    ground.__name__ = ground.__qualname__ = f"{action_type}_container"
+    return ground
+
+
+for _verb in ("opening", "closing"):
+    rule("action", _verb)(_container_rule(_verb))

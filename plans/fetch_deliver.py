@@ -1,0 +1,575 @@
+"""Navigate, turn, search, fetch, deliver, transport, access and seal (CRAM HEAD's
+``fetch-and-deliver-plans.lisp``), with CRAM's nested failure handling and retry counts:
+
+=================  ==========================================  ============================
+action             retries (HEAD)                              raises when exhausted
+=================  ==========================================  ============================
+navigating         30 collision-check samples                  navigation-goal-in-collision
+turning-towards    1 (turn the base, look again)               looking-high-level-failure
+searching          9 search locations                          object-nowhere-to-be-found
+fetching           10 relocations, 1 regrasp, 30 pick checks   object-unfetchable
+delivering         outer 2 targets, 5 relocations, 2 targets   object-undeliverable
+accessing/sealing  10 relocations                              env.-manipulation-impossible
+transporting       object-undeliverable -> drop at the sink    what search / fetch raise
+=================  ==========================================  ============================
+
+Every level has one retry scope: the counter and the designator cursor it advances are
+named there; inner counters are created inside the outer body, so they start afresh on
+every outer retry (CRAM's lexical counters). Counters are :class:`CountedRetries` whose
+names ("relocations", "regrasps", "targets", "search", ...) the demo tallies.
+Deliberate fix: ``deliver``'s outer retry reads the *advanced* target (HEAD read the old).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Any
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    EnvironmentManipulationImpossible,
+    EnvironmentUnreachable,
+    GripperLowLevelFailure,
+    LocationDesignator,
+    LookingHighLevelFailure,
+    ManipulationLowLevelFailure,
+    NavigationGoalInCollision,
+    NavigationHighLevelFailure,
+    NavigationLowLevelFailure,
+    ObjectDesignator,
+    ObjectNowhereToBeFound,
+    ObjectUndeliverable,
+    ObjectUnfetchable,
+    ObjectUnreachable,
+    PerceptionLowLevelFailure,
+    Pose,
+    PtuLowLevelFailure,
+    SolutionCursor,
+    a,
+    an,
+    current_environment,
+    perform,
+    retry_with_designator_solutions,
+    rule,
+)
+
+from ._common import (
+    CountedRetries,
+    as_location,
+    ignoring,
+    object_label,
+    perform_ignoring,
+    to_base,
+    to_map,
+    translating_designator_errors,
+)
+from .atomic import park_arms
+from .checks import (
+    PlacingPoseUnstable,
+    check_environment_manipulation_collisions,
+    check_navigating_collisions,
+    check_picking_up_collisions,
+    check_placing_collisions,
+    check_placing_pose_stability,
+)
+from .environment import DEFAULT_DISTANCE, handle_link
+
+__all__ = [
+    "ROBOT",
+    "deliver",
+    "drop_at_sink",
+    "fetch",
+    "go_without_collisions",
+    "manipulate_environment",
+    "search_for_object",
+    "transport",
+    "turn_towards",
+]
+
+#: The robot name in ``reachable-for`` / ``visible-for`` location designators.
+ROBOT = "pr2"
+
+
+def _location(d: Designator, key: str) -> LocationDesignator:
+    value = d.get(key)
+    if isinstance(value, (LocationDesignator, Pose)):
+        return as_location(value)
+    raise DesignatorError(f"{d.short()} needs a {key} (location designator or pose)", d)
+
+
+def _object(d: Designator) -> ObjectDesignator:
+    value = d.get("object")
+    if not isinstance(value, ObjectDesignator):
+        raise DesignatorError(f"{d.short()} needs an object designator", d)
+    return value
+
+
+# ---------------------------------------------------------------------------- navigating
+@cpl.plan(name="go-without-collisions")
+async def go_without_collisions(location: LocationDesignator) -> None:
+    """Park the arms (carry), pick a collision-free sample of ``location`` (up to 30,
+    :func:`check_navigating_collisions`), and go there; navigation low-level failures of
+    the going are ignored. Raises ``NavigationGoalInCollision`` (also for designator
+    errors)."""
+    await park_arms()
+    checked = check_navigating_collisions(location)
+    await perform_ignoring(an.action(type="going", target=checked), NavigationLowLevelFailure)
+
+
+@rule("action", "navigating")
+def _navigating(d: Designator) -> Iterator[Any]:
+    yield go_without_collisions, {"location": _location(d, "location")}
+
+
+# ----------------------------------------------------------------------- turning towards
+def _turned_base(target: Pose) -> Pose:
+    """The robot's pose rotated in place to face ``target``."""
+    world = current_environment().world
+    in_base = to_base(target)
+    yaw = math.atan2(in_base.position[1], in_base.position[0])
+    robot = world.robot_pose()
+    return Pose.from_xyz_yaw(robot.position[0], robot.position[1], 0.0, robot.yaw + yaw)
+
+
+@cpl.plan(name="turn-towards")
+async def turn_towards(target: LocationDesignator) -> None:
+    """Look at ``target``; on ``ptu-low-level-failure`` (1 retry) turn the base towards it
+    (``navigating``), look forward and look again. Raises ``LookingHighLevelFailure`` when
+    the retry is used up, and for designator errors and navigation high-level failures."""
+    turns = CountedRetries(1, "turns")
+
+    async def look() -> None:
+        await perform(an.action(type="looking", target=target))
+
+    async def turn_base(failure: BaseException) -> None:
+        if turns.do_retry():
+            base = _turned_base(target.current().reference())
+            await perform(an.action(type="navigating", location=a.location(pose=base)))
+            await perform(an.action(type="looking", direction="forward"))
+            cpl.retry()
+        raise LookingHighLevelFailure(f"cannot look at {target.short()}") from failure
+
+    async def body() -> None:
+        await cpl.with_failure_handling(look, [(PtuLowLevelFailure, turn_base)])
+
+    def translate(failure: BaseException) -> None:
+        raise LookingHighLevelFailure(str(failure)) from failure
+
+    await cpl.with_failure_handling(
+        body, [((DesignatorError, NavigationHighLevelFailure), translate)]
+    )
+
+
+@rule("action", "turning-towards")
+def _turning_towards(d: Designator) -> Iterator[Any]:
+    yield turn_towards, {"target": _location(d, "target")}
+
+
+# ----------------------------------------------------------------------------- searching
+@cpl.plan(name="search-for-object")
+async def search_for_object(
+    object_designator: ObjectDesignator, location: LocationDesignator, retries: int = 9
+) -> ObjectDesignator:
+    """Go where ``location``'s current sample is visible, look at it and detect the
+    object; on ``navigation-goal-in-collision``, ``looking-high-level-failure`` or
+    ``perception-low-level-failure`` try the next sample of ``location`` (9 retries).
+    Raises ``ObjectNowhereToBeFound`` when samples or retries run out (and for designator
+    errors). Returns the perceived designator."""
+    search_location = SolutionCursor(location)
+    searches = CountedRetries(retries, "search")
+
+    async def look_there() -> ObjectDesignator:
+        spot = search_location.current.reference()
+        view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
+        await perform(an.action(type="navigating", location=view))
+        await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
+        found: ObjectDesignator = await perform(
+            an.action(type="detecting", object=object_designator)
+        )
+        return found
+
+    def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
+        return ObjectNowhereToBeFound(object=object_label(object_designator))
+
+    async def body() -> ObjectDesignator:
+        found: ObjectDesignator = await cpl.with_failure_handling(
+            look_there,
+            [
+                (
+                    (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure),
+                    lambda _f: retry_with_designator_solutions(
+                        search_location, searches, rethrow=nowhere()
+                    ),
+                )
+            ],
+        )
+        return found
+
+    result: ObjectDesignator = await translating_designator_errors(body, nowhere)
+    return result
+
+
+@rule("action", "searching")
+def _searching(d: Designator) -> Iterator[Any]:
+    yield search_for_object, {"object_designator": _object(d), "location": _location(d, "location")}
+
+
+# ------------------------------------------------------------------------------ fetching
+@cpl.plan(name="fetch")
+async def fetch(
+    object_designator: ObjectDesignator,
+    arm: str | None = None,
+    robot_location: LocationDesignator | None = None,
+    pick_up_action: Designator | None = None,
+) -> ObjectDesignator:
+    """Fetch a perceived object.
+
+    Relocation scope (10 retries over ``robot_location``, default ``reachable-for`` the
+    object's current map pose): on ``navigation-goal-in-collision``,
+    ``looking-high-level-failure``, ``perception-low-level-failure``,
+    ``object-unreachable`` or ``manipulation-low-level-failure`` go to the next base pose.
+    Its body: navigate, turn towards the object, then the regrasp scope (1 retry, parks
+    the arms on ``gripper-low-level-failure``; exhausted -> ``object-unreachable``): detect,
+    check the picking-up solutions (:func:`check_picking_up_collisions`, 30) and pick up.
+    Raises ``ObjectUnfetchable`` when relocations run out (and for designator errors).
+    Parks the arms and returns the newest object designator."""
+
+    def unfetchable(_failure: BaseException | None = None) -> ObjectUnfetchable:
+        return ObjectUnfetchable(object=object_label(object_designator))
+
+    async def body() -> ObjectDesignator:
+        name = object_designator.current().get("name")
+        object_pose = a.location(of_item_object=name).reference()
+        base_poses = SolutionCursor(
+            robot_location.current()
+            if robot_location is not None
+            else a.location(reachable_for=ROBOT, location=a.location(pose=object_pose), arm=arm)
+        )
+        relocations = CountedRetries(10, "relocations")
+
+        async def from_here() -> None:
+            await perform(an.action(type="navigating", location=base_poses.current))
+            await perform(an.action(type="turning-towards", target=a.location(pose=object_pose)))
+            regrasps = CountedRetries(1, "regrasps")
+
+            async def pick() -> None:
+                perceived = await perform(an.action(type="detecting", object=object_designator))
+                given = pick_up_action.current() if pick_up_action is not None else None
+                picking = an.action(
+                    type="picking-up",
+                    object=perceived,
+                    arm=given.get("arm") if given is not None else arm,
+                    grasp=given.get("grasp") if given is not None else None,
+                )
+                await perform(check_picking_up_collisions(picking))
+
+            async def regrasp(failure: BaseException) -> None:
+                if regrasps.do_retry():
+                    await park_arms()
+                    cpl.retry()
+                raise ObjectUnreachable(object=object_label(object_designator)) from failure
+
+            await cpl.with_failure_handling(pick, [(GripperLowLevelFailure, regrasp)])
+
+        await cpl.with_failure_handling(
+            from_here,
+            [
+                (
+                    (
+                        NavigationGoalInCollision,
+                        LookingHighLevelFailure,
+                        PerceptionLowLevelFailure,
+                        ObjectUnreachable,
+                        ManipulationLowLevelFailure,
+                    ),
+                    lambda _f: retry_with_designator_solutions(
+                        base_poses, relocations, rethrow=unfetchable()
+                    ),
+                )
+            ],
+        )
+        await park_arms()
+        return object_designator.current()  # type: ignore[return-value]
+
+    result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
+    return result
+
+
+@rule("action", "fetching")
+def _fetching(d: Designator) -> Iterator[Any]:
+    yield (
+        fetch,
+        {
+            "object_designator": _object(d),
+            "arm": d.get("arm"),
+            "robot_location": d.get("robot-location"),
+            "pick_up_action": d.get("pick-up-action"),
+        },
+    )
+
+
+# ---------------------------------------------------------------------------- delivering
+@cpl.plan(name="deliver")
+async def deliver(
+    object_designator: ObjectDesignator,
+    target: LocationDesignator,
+    robot_location: LocationDesignator | None = None,
+    place_action: Designator | None = None,
+) -> None:
+    """Deliver the held object to ``target``.
+
+    Outer scope (2 retries over ``target``): on a designator error or
+    ``object-undeliverable`` take the next target sample. Its body builds the robot
+    location (``robot_location``'s newest effective member, or ``reachable-for`` the
+    target pose) and runs the relocation scope (5 retries over the robot location; on
+    ``navigation-goal-in-collision``, ``object-undeliverable`` or
+    ``manipulation-low-level-failure``): navigate, then the target scope (2 retries over
+    ``target``, the robot stays; on ``looking-high-level-failure``, ``object-unreachable``
+    or an unstable placing pose): turn towards the target, check its stability (v0.8.1),
+    build ``placing`` at the target in ``base_footprint``, check it
+    (:func:`check_placing_collisions`) and perform it. Raises ``ObjectUndeliverable``."""
+    targets_cursor = SolutionCursor(target)
+    outer = CountedRetries(2, "deliver-targets")
+    object_type = _held_type(object_designator)
+
+    def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
+        return ObjectUndeliverable(object=object_label(object_designator))
+
+    async def attempt() -> None:
+        target_pose = to_map(targets_cursor.current.reference())
+        given = robot_location.newest_effective() if robot_location is not None else None
+        base_poses = SolutionCursor(
+            given
+            if given is not None
+            else a.location(reachable_for=ROBOT, location=a.location(pose=target_pose))
+        )
+        relocations = CountedRetries(5, "relocations")
+
+        async def from_here() -> None:
+            await perform(an.action(type="navigating", location=base_poses.current))
+            targets = CountedRetries(2, "targets")
+
+            async def place_at_target() -> None:
+                spot = to_map(targets_cursor.current.reference())
+                await perform(an.action(type="turning-towards", target=targets_cursor.current))
+                check_placing_pose_stability(object_type, spot)
+                goal: Any = a.location(pose=to_base(spot))
+                if place_action is not None:
+                    goal = place_action.current().get("target", goal)
+                placing = an.action(type="placing", object=object_designator, target=goal)
+                await perform(check_placing_collisions(placing))
+
+            await cpl.with_failure_handling(
+                place_at_target,
+                [
+                    (
+                        (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable),
+                        lambda _f: retry_with_designator_solutions(
+                            targets_cursor, targets, rethrow=undeliverable()
+                        ),
+                    )
+                ],
+            )
+
+        await cpl.with_failure_handling(
+            from_here,
+            [
+                (
+                    (
+                        NavigationGoalInCollision,
+                        ObjectUndeliverable,
+                        ManipulationLowLevelFailure,
+                    ),
+                    lambda _f: retry_with_designator_solutions(
+                        base_poses, relocations, rethrow=undeliverable()
+                    ),
+                )
+            ],
+        )
+
+    await cpl.with_failure_handling(
+        attempt,
+        [
+            (
+                (DesignatorError, ObjectUndeliverable),
+                lambda _f: retry_with_designator_solutions(
+                    targets_cursor, outer, rethrow=undeliverable()
+                ),
+            )
+        ],
+    )
+
+
+def _held_type(obj: ObjectDesignator) -> str:
+    otype = obj.current().type
+    if isinstance(otype, str):
+        return otype
+    name = obj.current().get("name")
+    return current_environment().world.object_type(name)  # type: ignore[attr-defined,no-any-return]
+
+
+@rule("action", "delivering")
+def _delivering(d: Designator) -> Iterator[Any]:
+    yield (
+        deliver,
+        {
+            "object_designator": _object(d),
+            "target": _location(d, "target"),
+            "robot_location": d.get("robot-location"),
+            "place_action": d.get("place-action"),
+        },
+    )
+
+
+# -------------------------------------------------------------------------- transporting
+#: CRAM's hard-coded drop-at-sink poses: the base in map, the object in base_footprint.
+SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
+SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
+
+
+async def drop_at_sink(object_designator: ObjectDesignator) -> None:
+    """Go to CRAM's fixed pose at the sink and place the object there; every failure is
+    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded poses)."""
+
+    async def drop() -> None:
+        await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
+        target = a.location(pose=SINK_DROP_POSE)
+        await perform(an.action(type="placing", object=object_designator, target=target))
+
+    await ignoring(drop, (cpl.PlanFailure, DesignatorError))
+
+
+@cpl.plan(name="transport")
+async def transport(
+    object_designator: ObjectDesignator,
+    location: LocationDesignator,
+    target: LocationDesignator,
+    arm: str | None = None,
+) -> ObjectDesignator | None:
+    """Access the container (if ``location`` is ``in`` one), search, fetch and deliver the
+    object; an ``object-undeliverable`` makes it drop the object at the sink. Search and
+    fetch failures propagate. Cleanup: the container is sealed in a ``finally`` that runs
+    shielded, so it also runs when the transport is evaporated (the evaporation is
+    re-raised afterwards). Returns the delivered object designator, or ``None`` when it was
+    dropped at the sink."""
+    container = location.get("in")
+    accessible = container is None
+    if not accessible:
+        await perform(
+            an.action(type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE)
+        )
+    try:
+        found = await perform(
+            an.action(type="searching", object=object_designator, location=location)
+        )
+        fetched: ObjectDesignator = await perform(an.action(type="fetching", object=found, arm=arm))
+
+        async def deliver_it() -> bool:
+            await perform(an.action(type="delivering", object=fetched, target=target))
+            return True
+
+        delivered = await cpl.with_failure_handling(
+            deliver_it, [(ObjectUndeliverable, lambda _f: _drop_and_return(fetched))]
+        )
+        return fetched if delivered else None
+    finally:
+        if not accessible:
+            sealing = an.action(
+                type="sealing", location=location, arm="left", distance=DEFAULT_DISTANCE
+            )
+            await cpl.shielded(perform(sealing))
+
+
+async def _drop_and_return(obj: ObjectDesignator) -> None:
+    await drop_at_sink(obj)
+    cpl.return_(False)
+
+
+@rule("action", "transporting")
+def _transporting(d: Designator) -> Iterator[Any]:
+    yield (
+        transport,
+        {
+            "object_designator": _object(d),
+            "location": _location(d, "location"),
+            "target": _location(d, "target"),
+            "arm": d.get("arm"),
+        },
+    )
+
+
+# ---------------------------------------------------------------------- accessing/sealing
+@cpl.plan(name="manipulate-environment")
+async def manipulate_environment(
+    action_type: str, container: ObjectDesignator, arm: str, distance: float
+) -> None:
+    """Open (``accessing``) or close (``sealing``) a drawer: relocation scope (10 retries
+    over ``reachable-for`` the handle, for ``arm``): navigate, build ``opening``/
+    ``closing``, check it (:func:`check_environment_manipulation_collisions`, contacts with
+    the drawer allowed) and perform it. On ``navigation-goal-in-collision``,
+    ``environment-unreachable``, gripper or manipulation low-level failures: next base
+    pose. Raises ``EnvironmentManipulationImpossible`` (also for designator errors)."""
+
+    def impossible(_failure: BaseException | None = None) -> EnvironmentManipulationImpossible:
+        return EnvironmentManipulationImpossible(f"cannot {action_type} {container.short()}")
+
+    async def body() -> None:
+        link = handle_link(container)
+        try:
+            handle = current_environment().world.link_pose(link, "map")  # type: ignore[attr-defined]
+        except LookupError as error:
+            raise DesignatorError(f"{container.short()}: {error}", container) from error
+        base_poses = SolutionCursor(
+            a.location(reachable_for=ROBOT, location=a.location(pose=handle), arm=arm)
+        )
+        relocations = CountedRetries(10, "relocations")
+        allowed = (link, str(container.get("urdf-name")))
+
+        async def from_here() -> None:
+            await perform(an.action(type="navigating", location=base_poses.current))
+            verb = "opening" if action_type == "accessing" else "closing"
+            action = an.action(type=verb, object=container, arm=arm, distance=distance)
+            await perform(check_environment_manipulation_collisions(action, allowed))
+
+        await cpl.with_failure_handling(
+            from_here,
+            [
+                (
+                    (
+                        NavigationGoalInCollision,
+                        EnvironmentUnreachable,
+                        GripperLowLevelFailure,
+                        ManipulationLowLevelFailure,
+                    ),
+                    lambda _f: retry_with_designator_solutions(
+                        base_poses, relocations, rethrow=impossible()
+                    ),
+                )
+            ],
+        )
+
+    await translating_designator_errors(body, impossible)
+
+
+def _environment_rule(action_type: str) -> Any:
+    def ground(d: Designator) -> Iterator[Any]:
+        location = _location(d, "location")
+        container = location.get("in")
+        if not isinstance(container, ObjectDesignator):
+            raise DesignatorError(f"{d.short()}: its location must be (in <container>)", d)
+        arm = d.get("arm", "left")
+        distance = float(d.get("distance", DEFAULT_DISTANCE))
+        yield (
+            manipulate_environment,
+            {"action_type": action_type, "container": container, "arm": arm, "distance": distance},
+        )
+
+    ground.__name__ = ground.__qualname__ = action_type
+    return ground
+
+
+for _verb in ("accessing", "sealing"):
+    rule("action", _verb)(_environment_rule(_verb))

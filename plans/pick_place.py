@@ -1,0 +1,231 @@
+"""Pick and place (CRAM's ``pick-place-plans.lisp`` and ``pick-place-designators.lisp``).
+
+``picking-up (object O) (arm A)? (grasp G)?``: solutions arm-major (right, then left) and
+grasp-minor (the type's grasps in :mod:`executive.knowledge` order); the object must have
+been perceived (its newest designator carries a ``transform`` base -> object, or a
+``pose``). Waypoints: :func:`executive.knowledge.grasp_poses` (pregrasp, 2nd pregrasp,
+grasp, lift, 2nd lift), in ``base_footprint``.
+
+``placing (object O)? (arm A)? (target L)?``: the arms holding something (or the given
+arm); the target's every solution (else the object's current pose); the five waypoints at
+the target, reversed. Deliberate fix of CRAM HEAD's quirk (it always used the type's
+*first* grasp): the gripper-in-object transform is measured from the world model (the
+object in hand relative to the tool frame), so the object lands where the target says,
+whatever grasp picked it; the grounding names the grasp that transform is closest to.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    GripperLowLevelFailure,
+    LocationDesignator,
+    ManipulationLowLevelFailure,
+    ObjectDesignator,
+    Pose,
+    Transform,
+    an,
+    current_environment,
+    emit,
+    knowledge,
+    perform,
+    rule,
+)
+from executive.events import ObjectAttached, ObjectDetached
+
+from ._common import perform_ignoring, to_base, tool_frame, wrist_link
+
+__all__ = ["pick_up", "place", "placing_waypoints"]
+
+
+def _sides(arm: str, poses: Sequence[Pose]) -> dict[str, tuple[Pose, ...]]:
+    return {
+        "left_poses": tuple(poses) if arm == "left" else (),
+        "right_poses": tuple(poses) if arm == "right" else (),
+    }
+
+
+def _arm_action(action_type: str, arm: str, poses: Sequence[Pose]) -> Designator:
+    return an.action(type=action_type, **_sides(arm, poses))
+
+
+# ---------------------------------------------------------------------------- picking up
+@cpl.plan(name="pick-up")
+async def pick_up(
+    object_designator: ObjectDesignator,
+    arm: str,
+    grasp: str,
+    opening: float,
+    effort: float,
+    reach_poses: Sequence[Pose],
+    grasp_poses: Sequence[Pose],
+    lift_poses: Sequence[Pose],
+) -> ObjectDesignator:
+    """Pick the object up.
+
+    1. in ``par``: ``setting-gripper`` to the opening, and ``reaching`` (its manipulation
+       failure propagates); 2. ``grasping`` (failures ignored); 3. ``gripping`` (gripper
+       failures propagate after its own regrip); 4. ``ObjectAttached`` (to the wrist link);
+       5. ``lifting`` (failures ignored). Evaporation before step 4 leaves nothing attached.
+    Returns the object designator."""
+    await cpl.par(
+        cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=opening))),
+        cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
+    )
+    await perform_ignoring(_arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure)
+    await perform(an.action(type="gripping", gripper=arm, effort=effort))
+    emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
+    await perform_ignoring(_arm_action("lifting", arm, lift_poses), ManipulationLowLevelFailure)
+    return object_designator
+
+
+def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:
+    transform = obj.get("transform")
+    if isinstance(transform, Transform):
+        return transform
+    pose = obj.get("pose")
+    if isinstance(pose, Pose):
+        return to_base(pose).to_transform(str(obj.get("name", "")))
+    raise DesignatorError(
+        f"{d.short()}: the object {obj.short()} was not perceived (no pose); perform "
+        "detecting first",
+        d,
+    )
+
+
+@rule("action", "picking-up")
+def _picking_up(d: Designator) -> Iterator[Any]:
+    given = d.get("object")
+    if not isinstance(given, ObjectDesignator):
+        raise DesignatorError(f"{d.short()} needs an object designator", d)
+    obj: ObjectDesignator = given.current()  # type: ignore[assignment]
+    otype = obj.type
+    try:
+        info = knowledge.object_knowledge(otype)
+    except LookupError as exc:
+        raise DesignatorError(f"{d.short()}: {exc}", d) from None
+    transform = _object_transform(obj, d)
+    arms = (d["arm"],) if "arm" in d else knowledge.ARMS
+    grasp_names = (d["grasp"],) if "grasp" in d else knowledge.grasps(otype)
+    for arm in arms:
+        for grasp_name in grasp_names:
+            try:
+                poses = knowledge.grasp_poses(otype, grasp_name, transform)
+            except LookupError as exc:
+                raise DesignatorError(f"{d.short()}: {exc}", d) from None
+            yield (
+                pick_up,
+                {
+                    "object_designator": obj,
+                    "arm": arm,
+                    "grasp": grasp_name,
+                    "opening": info.opening,
+                    "effort": info.effort,
+                    "reach_poses": tuple(poses[:2]),
+                    "grasp_poses": (poses[2],),
+                    "lift_poses": tuple(poses[3:]),
+                },
+            )
+
+
+# ------------------------------------------------------------------------------- placing
+@cpl.plan(name="place")
+async def place(
+    object_designator: Any,
+    arm: str,
+    reach_poses: Sequence[Pose],
+    put_poses: Sequence[Pose],
+    retract_poses: Sequence[Pose],
+    grasp: str | None = None,
+) -> None:
+    """Put the held object down.
+
+    1. ``reaching`` (its manipulation failure propagates); 2. ``putting`` (ignored);
+    3. ``releasing`` (gripper failures ignored); 4. ``ObjectDetached`` (the world model
+    lets the object settle); 5. ``retracting`` (ignored)."""
+    await perform(_arm_action("reaching", arm, reach_poses))
+    await perform_ignoring(_arm_action("putting", arm, put_poses), ManipulationLowLevelFailure)
+    await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
+    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    await perform_ignoring(
+        _arm_action("retracting", arm, retract_poses), ManipulationLowLevelFailure
+    )
+
+
+def _closest_grasp(object_type: str, rotation: np.ndarray) -> knowledge.Grasp:
+    """The type's grasp whose tool orientation (in the object frame) is closest."""
+    g_prime_t_g = np.array(knowledge.STANDARD_TO_PR2_ROTATION)
+
+    def angle(g: knowledge.Grasp) -> float:
+        delta = (np.array(g.rotation) @ g_prime_t_g).T @ rotation
+        return math.acos(max(-1.0, min(1.0, (np.trace(delta) - 1.0) / 2.0)))
+
+    return min(knowledge.object_knowledge(object_type).grasps, key=angle)
+
+
+def placing_waypoints(
+    object_type: str, object_t_tool: Transform, target_in_base: Pose
+) -> tuple[str, list[Pose]]:
+    """The grasp closest to the measured tool pose in the object frame, and the five
+    waypoints at the target in CRAM's picking order (pregrasp ... 2nd lift): the measured
+    gripper-in-object transform, with that grasp's offsets added in the object frame."""
+    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3])
+    b_t_o = target_in_base.matrix()
+    o_t_g = object_t_tool.matrix()
+    out = []
+    for offset in g.offsets():
+        m = o_t_g.copy()
+        m[:3, 3] += offset
+        out.append(Transform.from_matrix(b_t_o @ m, target_in_base.frame).to_pose())
+    return g.name, out
+
+
+@rule("action", "placing")
+def _placing(d: Designator) -> Iterator[Any]:
+    world = current_environment().world
+    given = d.get("object")
+    arms = (d["arm"],) if "arm" in d else knowledge.ARMS
+    held = [(arm, world.object_in_hand(arm)) for arm in arms]  # type: ignore[attr-defined]
+    if isinstance(given, ObjectDesignator) and given.current().get("name"):
+        name = given.current().get("name")
+        held = [(arm, n) for arm, n in held if n == name]
+    held = [(arm, n) for arm, n in held if n is not None]
+    if not held:
+        raise DesignatorError(f"{d.short()}: the robot holds no such object", d)
+    target = d.get("target")
+    for arm, name in held:
+        obj = given.current() if isinstance(given, ObjectDesignator) else an.object(name=name)
+        otype = world.object_type(name)  # type: ignore[attr-defined]
+        obj_map = world.object_pose(name, "map").to_transform()
+        tool_map = world.link_pose(tool_frame(arm), "map").to_transform()  # type: ignore[attr-defined]
+        object_t_tool = obj_map.inverse() * tool_map
+        if target is None:
+            targets: Any = [world.object_pose(name, "base_footprint")]
+        elif isinstance(target, LocationDesignator):
+            targets = target.current().solutions()
+        elif isinstance(target, Pose):
+            targets = [target]
+        else:
+            raise DesignatorError(f"{d.short()}: target must be a location or a pose", d)
+        for target_pose in targets:
+            grasp_name, poses = placing_waypoints(otype, object_t_tool, to_base(target_pose))
+            poses.reverse()
+            yield (
+                place,
+                {
+                    "object_designator": obj,
+                    "arm": arm,
+                    "reach_poses": tuple(poses[:2]),
+                    "put_poses": (poses[2],),
+                    "retract_poses": tuple(poses[3:]),
+                    "grasp": grasp_name,
+                },
+            )

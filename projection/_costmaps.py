@@ -1,0 +1,739 @@
+"""Costmaps for location designators (CRAM's ``cram_location_costmap`` and the spatial
+relations of ``cram_btr_spatial_relations_costmap``), with numpy.
+
+A :class:`Costmap` is a grid (:class:`CostmapSpec`, by default CRAM's 300 x 300 cells at
+0.04 m from (-6, -6)) that is the product of named factors in [0, 1] (0/1 regions and
+Gaussians; a factor whose name is already present is dropped, as CRAM de-duplicates by
+name). It is normalised into a distribution, and :meth:`Costmap.sample` draws a cell with a
+caller-supplied :class:`numpy.random.Generator` (so a run is reproducible), puts the pose
+at the cell's corner (CRAM's quirk 10: exactly the point the factors were evaluated at),
+picks the height among the height generators' outputs (default 0) and yields one pose per
+orientation of the first orientation generator (default identity).
+
+Factors are evaluated only on cells that are still non-zero, so an expensive factor (the
+ray-cast visibility factor) runs last and on few cells.
+
+The builders below (:func:`add_reachable_for`, :func:`add_on_box`, ...) add the factors of
+one designator key (reference section 3.3) to a costmap; they take plain geometry
+(numbers, AABBs) or a :class:`~projection._world.World`. Deviations from CRAM are named in
+their docstrings; the main ones: boxes are the links' *true* AABBs (CRAM centres them on the
+link origin; in this kitchen both coincide because link origins are box centres), and the
+demo's restricted area in front of the sink reaches y < 1.25 (see :data:`DEMO_AREAS`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Final
+
+import numpy as np
+import pybullet as pb
+
+from executive._pose import Pose, yaw_quaternion
+from projection import _urdf
+
+__all__ = [
+    "BOARD_THICKNESS",
+    "CAMERA_HEIGHTS",
+    "DEMO_AREAS",
+    "IN_REACH_DISTANCE",
+    "KITCHEN_LINKS",
+    "PADDING",
+    "REACH_MINIMAL_DISTANCE",
+    "VISIBILITY_SIZE",
+    "Costmap",
+    "CostmapSpec",
+    "Factor",
+    "add_demo_area",
+    "add_far_from",
+    "add_free_space",
+    "add_in_box",
+    "add_near",
+    "add_on_box",
+    "add_range",
+    "add_reachable_for",
+    "add_relation",
+    "add_side",
+    "add_slots",
+    "add_visible_for",
+    "closest_edge",
+    "constant_height",
+    "facing",
+    "gaussian",
+    "near_padding",
+    "near_size",
+    "pose_covariance",
+    "slot_centres",
+]
+
+Array = np.ndarray
+FactorFn = Callable[[Array, Array], Array]
+HeightFn = Callable[[float, float], Sequence[float]]
+OrientationFn = Callable[[float, float], Sequence[float]]
+Box2 = tuple[tuple[float, float], tuple[float, float]]
+
+# ------------------------------------------------------------------ CRAM's parameters
+PADDING: Final = 0.3  #: costmap-padding: kitchen free space
+IN_REACH_DISTANCE: Final = 0.7  #: costmap-in-reach-distance
+REACH_MINIMAL_DISTANCE: Final = 0.2  #: costmap-reach-minimal-distance
+VISIBILITY_SIZE: Final = 2.0  #: visibility-costmap-size (range of visible-for, window side)
+ORIENTATION_SAMPLES: Final = 2  #: orientation-samples (2 -> exactly one yaw)
+ORIENTATION_SAMPLE_STEP: Final = 0.1  #: orientation-sample-step
+POSE_MINVAR: Final = 0.5  #: 2d-pose-covariance minvar of reachable-for / visible-for
+CAMERA_HEIGHTS: Final = (1.27, 1.38, 1.49, 1.60)  #: PR2 camera heights cast from (m)
+BOARD_THICKNESS: Final = 0.035  #: ``in`` height above the container's bottom
+#: The kitchen's links (their AABBs make the free-space factor).
+KITCHEN_LINKS: Final = tuple(_urdf.KITCHEN_BOXES)
+#: The demo's restricted area: (x_lo, x_hi, y_lo, y_hi), 1 where x_lo < x <= x_hi and
+#: y_lo < y < y_hi. CRAM's rectangles are (0, 1.0, -1, 0.7) in front of the sink and
+#: (-1, 0, -1, 2.5) in front of the island. Our sink counter spans y -0.65..1.25 (CRAM's
+#: rectangle was cut at 0.7 for the IAI kitchen's furniture, which this kitchen does not
+#: have): with y < 0.7 and the counter front at x = 1.12 (free space keeps the base at
+#: x <= 0.82) a point on the counter's left front end, e.g. (1.3, 1.2), is more than the
+#: 0.7 m reach from every allowed base pose. So the sink rectangle reaches y < 1.25.
+#: The island rectangle fits our island (x -1.20..-0.55, y 0.20..2.40) unchanged.
+DEMO_AREAS: Final = ((0.0, 1.0, -1.0, 1.25), (-1.0, 0.0, -1.0, 2.5))
+
+#: Table-setting slot paddings (x+, x-, y+, y-) per surface link (default 0.03 all round).
+SLOT_PADDINGS: Final[Mapping[str, tuple[float, float, float, float]]] = MappingProxyType(
+    {
+        "kitchen_island_surface": (0.03, 0.03, 0.8, 0.03),
+        "sink_area_surface": (0.03, 0.03, 0.03, 0.03),
+    }
+)
+#: Slot size (max, min) per object type (default (0.8, 0.5)).
+SLOT_SIZES: Final[Mapping[str, tuple[float, float]]] = MappingProxyType(
+    {"plate": (0.8, 0.5), "bowl": (0.6, 0.2)}
+)
+#: Slot position-deviation threshold per object type (default 0.1).
+SLOT_THRESHOLDS: Final[Mapping[str, float]] = MappingProxyType({"plate": 0.08})
+_NEAR_PADDINGS: Final = MappingProxyType({"bowl": 0.03, "cup": 0.1, "mug": 0.01, "plate": 0.005})
+_SHAPES: Final = MappingProxyType(
+    {"bowl": "circle", "plate": "circle", "mug": "complex", "pot": "complex"}
+)
+
+
+# --------------------------------------------------------------------------- the grid
+@dataclass(frozen=True)
+class CostmapSpec:
+    """Grid geometry: ``width`` x ``height`` cells of ``resolution`` metres, cell (0, 0)'s
+    corner at ``origin``. Rows are y, columns x. Non-positive sizes raise ValueError."""
+
+    width: int = 300
+    height: int = 300
+    resolution: float = 0.04
+    origin: tuple[float, float] = (-6.0, -6.0)
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0 or not self.resolution > 0:
+            raise ValueError(f"a costmap needs positive sizes, got {self!r}")
+
+    def grid(self) -> tuple[Array, Array]:
+        """Cell-corner coordinates ``(X, Y)``, each of shape ``(height, width)``."""
+        xs = self.origin[0] + self.resolution * np.arange(self.width)
+        ys = self.origin[1] + self.resolution * np.arange(self.height)
+        return np.meshgrid(xs, ys)
+
+    def cell(self, x: float, y: float) -> tuple[int, int] | None:
+        """``(row, col)`` of the cell containing (x, y), or None outside the grid."""
+        col = math.floor((x - self.origin[0]) / self.resolution + 1e-6)
+        row = math.floor((y - self.origin[1]) / self.resolution + 1e-6)
+        if 0 <= row < self.height and 0 <= col < self.width:
+            return row, col
+        return None
+
+
+@dataclass(frozen=True)
+class Factor:
+    """A named factor: ``fn(x, y)`` -> values in [0, 1] for 1-D arrays of cell corners.
+    Factors run in descending ``score`` (CRAM's order), ``expensive`` ones last."""
+
+    name: str
+    fn: FactorFn
+    score: float = 0.0
+    expensive: bool = False
+
+
+@dataclass
+class Costmap:
+    """Factors, height and orientation generators, and (once built) the normalised map.
+
+    Build lazily: :meth:`values` multiplies the factors once; adding anything afterwards
+    raises RuntimeError. An empty map (sum zero) has :attr:`empty_reason` naming the
+    factor that removed the last cells; sampling it raises ValueError.
+    """
+
+    spec: CostmapSpec = field(default_factory=CostmapSpec)
+    factors: list[Factor] = field(default_factory=list)
+    heights: list[HeightFn] = field(default_factory=list)
+    orientations: list[OrientationFn] = field(default_factory=list)
+    empty_reason: str | None = None
+    _values: Array | None = None
+    _cdf: Array | None = None
+    _max: float = 0.0
+
+    # ---------------------------------------------------------------- composition
+    def _mutable(self) -> None:
+        if self._values is not None:
+            raise RuntimeError("this costmap is already built; build a new one")
+
+    def names(self) -> list[str]:
+        return [f.name for f in self.factors]
+
+    def unique_name(self, base: str) -> str:
+        """``base``, or ``base-2``, ``base-3``... if taken (CRAM's ``instance-of``)."""
+        taken = set(self.names())
+        if base not in taken:
+            return base
+        k = 2
+        while f"{base}-{k}" in taken:
+            k += 1
+        return f"{base}-{k}"
+
+    def add(self, name: str, fn: FactorFn, score: float = 0.0, *, expensive: bool = False) -> bool:
+        """Add a factor unless one of that name exists; True if added."""
+        self._mutable()
+        if name in self.names():
+            return False
+        self.factors.append(Factor(name, fn, score, expensive))
+        return True
+
+    def add_height(self, fn: HeightFn) -> None:
+        """``fn(x, y)`` -> candidate heights; a sample's z is one of all outputs."""
+        self._mutable()
+        self.heights.append(fn)
+
+    def add_orientation(self, fn: OrientationFn) -> None:
+        """``fn(x, y)`` -> yaws. Only the first orientation generator is used (CRAM chains
+        them and the later ones pass the list through)."""
+        self._mutable()
+        self.orientations.append(fn)
+
+    # ---------------------------------------------------------------- evaluation
+    def values(self) -> Array:
+        """The unnormalised product, shape ``(height, width)`` (computed once)."""
+        if self._values is not None:
+            return self._values
+        spec = self.spec
+        X, Y = spec.grid()
+        m = np.ones(X.size)
+        xs, ys = X.ravel(), Y.ravel()
+        live = np.arange(X.size)
+        order = sorted(self.factors, key=lambda f: (f.expensive, -f.score))
+        done: list[str] = []
+        for f in order:
+            if live.size == 0:
+                break
+            v = np.asarray(f.fn(xs[live], ys[live]), dtype=float)
+            m[live] *= np.clip(v, 0.0, None)
+            keep = m[live] > 0.0
+            if not keep.any() and self.empty_reason is None:
+                after = f" after {', '.join(done)}" if done else ""
+                self.empty_reason = f"factor {f.name!r} leaves no cell{after}"
+            live = live[keep]
+            done.append(f.name)
+        if live.size == 0 and self.empty_reason is None:
+            self.empty_reason = "no cell has a positive value"
+        self._values = m.reshape(X.shape)
+        self._cdf = np.cumsum(m)
+        self._max = float(m.max()) if m.size else 0.0
+        return self._values
+
+    @property
+    def empty(self) -> bool:
+        self.values()
+        return self._max <= 0.0
+
+    @property
+    def max(self) -> float:
+        self.values()
+        return self._max
+
+    def value(self, x: float, y: float) -> float:
+        """The normalised value (value / max) of the cell containing (x, y); 0 outside the
+        grid or for an empty map."""
+        vals = self.values()
+        cell = self.spec.cell(x, y)
+        if cell is None or self._max <= 0.0:
+            return 0.0
+        return float(vals[cell] / self._max)
+
+    def heights_at(self, x: float, y: float) -> list[float]:
+        """Every height generator's output at (x, y); ``[0.0]`` without generators."""
+        if not self.heights:
+            return [0.0]
+        out: list[float] = []
+        for fn in self.heights:
+            out.extend(float(z) for z in fn(x, y))
+        return out or [0.0]
+
+    # ---------------------------------------------------------------- sampling
+    def sample_xy(self, rng: np.random.Generator) -> tuple[float, float]:
+        """One cell corner drawn from the normalised map. Empty map -> ValueError."""
+        self.values()
+        cdf = self._cdf
+        assert cdf is not None
+        total = cdf[-1]
+        if not total > 0.0:
+            raise ValueError(f"the costmap is empty: {self.empty_reason}")
+        idx = int(cdf.searchsorted(rng.random() * total, side="right"))
+        idx = min(idx, cdf.size - 1)
+        row, col = divmod(idx, self.spec.width)
+        s = self.spec
+        return s.origin[0] + col * s.resolution, s.origin[1] + row * s.resolution
+
+    def sample(self, rng: np.random.Generator) -> list[Pose]:
+        """The poses of one drawn cell: one per orientation (identity without an
+        orientation generator), z drawn among the heights. Empty map -> ValueError."""
+        x, y = self.sample_xy(rng)
+        hs = self.heights_at(x, y)
+        z = hs[int(rng.integers(len(hs)))] if len(hs) > 1 else hs[0]
+        if not self.orientations:
+            return [Pose((x, y, z))]
+        return [Pose((x, y, z), yaw_quaternion(yaw)) for yaw in self.orientations[0](x, y)]
+
+    def poses(self, rng: np.random.Generator) -> Iterator[Pose]:
+        """An infinite stream of sampled poses (nothing for an empty map)."""
+        if self.empty:
+            return
+        while True:
+            yield from self.sample(rng)
+
+
+# ------------------------------------------------------------------ cost functions
+def gaussian(mean: Sequence[float], cov: Array) -> FactorFn:
+    """The normalised 2-D normal pdf (CRAM's ``make-gauss-cost-function``)."""
+    mu = np.asarray(mean[:2], dtype=float)
+    cov = np.asarray(cov, dtype=float)
+    inv = np.linalg.inv(cov)
+    norm = 1.0 / (2.0 * math.pi * math.sqrt(float(np.linalg.det(cov))))
+
+    def f(x: Array, y: Array) -> Array:
+        dx, dy = x - mu[0], y - mu[1]
+        q = inv[0, 0] * dx * dx + (inv[0, 1] + inv[1, 0]) * dx * dy + inv[1, 1] * dy * dy
+        return np.asarray(norm * np.exp(-0.5 * q), dtype=float)
+
+    return f
+
+
+def pose_covariance(
+    points: Sequence[Sequence[float]], minvar: float
+) -> tuple[tuple[float, float], Array]:
+    """CRAM's ``2d-pose-covariance``: mean xy and Σ with Σxx = mean(max(dx², minvar)),
+    Σyy likewise, Σxy = mean(dx·dy). No points -> ValueError."""
+    if not points:
+        raise ValueError("2d-pose-covariance needs at least one point")
+    p = np.asarray([q[:2] for q in points], dtype=float)
+    mu = p.mean(axis=0)
+    d = p - mu
+    sxx = float(np.mean(np.maximum(d[:, 0] ** 2, minvar)))
+    syy = float(np.mean(np.maximum(d[:, 1] ** 2, minvar)))
+    sxy = float(np.mean(d[:, 0] * d[:, 1]))
+    return (float(mu[0]), float(mu[1])), np.array([[sxx, sxy], [sxy, syy]])
+
+
+def _range_fn(cx: float, cy: float, r: float, invert: bool) -> FactorFn:
+    def f(x: Array, y: Array) -> Array:
+        inside = np.hypot(x - cx, y - cy) <= r
+        return (~inside if invert else inside).astype(float)
+
+    return f
+
+
+def _box_fn(lo: Sequence[float], hi: Sequence[float]) -> FactorFn:
+    def f(x: Array, y: Array) -> Array:
+        return ((x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])).astype(float)
+
+    return f
+
+
+def constant_height(z: float) -> HeightFn:
+    """A height generator that always gives ``z``."""
+
+    def f(x: float, y: float) -> tuple[float]:
+        return (z,)
+
+    return f
+
+
+def facing(
+    px: float, py: float, samples: int = ORIENTATION_SAMPLES, step: float = ORIENTATION_SAMPLE_STEP
+) -> OrientationFn:
+    """CRAM's ``make-angle-to-point-generator``: the yaw towards (px, py) plus offsets
+    +step, -step, +2 step... while the offset is below ``step * ceil(samples / 2)``; with
+    samples = 2 exactly one yaw."""
+    offsets = [0.0]
+    k = 1
+    while k * step < step * math.ceil(samples / 2) - 1e-12:
+        offsets += [k * step, -k * step]
+        k += 1
+
+    def f(x: float, y: float) -> list[float]:
+        base = math.atan2(py - y, px - x)
+        return [base + o for o in offsets]
+
+    return f
+
+
+# --------------------------------------------------------------------- key builders
+def add_free_space(cm: Costmap, boxes: Sequence[Box2], padding: float = PADDING) -> None:
+    """Kitchen free space (score 4): 0 inside every box grown by ``padding``. Boxes are
+    the links' true world AABBs (CRAM centres them on the link origin)."""
+    arr = np.asarray(
+        [(lo[0] - padding, lo[1] - padding, hi[0] + padding, hi[1] + padding) for lo, hi in boxes],
+        dtype=float,
+    ).reshape(-1, 4)
+
+    def f(x: Array, y: Array) -> Array:
+        out = np.ones_like(x)
+        for x0, y0, x1, y1 in arr:
+            out[(x > x0) & (x < x1) & (y > y0) & (y < y1)] = 0.0
+        return out
+
+    cm.add("kitchen-free-space", f, 4)
+
+
+def add_demo_area(
+    cm: Costmap, areas: Sequence[tuple[float, float, float, float]] = DEMO_AREAS
+) -> None:
+    """The demo's restricted area (score 5): 1 inside any rectangle (see
+    :data:`DEMO_AREAS`)."""
+    rects = tuple(areas)
+
+    def f(x: Array, y: Array) -> Array:
+        out = np.zeros_like(x)
+        for x0, x1, y0, y1 in rects:
+            out[(x > x0) & (x <= x1) & (y > y0) & (y < y1)] = 1.0
+        return out
+
+    cm.add("demo-restricted-area", f, 5)
+
+
+def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[float, float]:
+    """``reachable-for``: a Gaussian (2d-pose-covariance, minvar 0.5, score 5) over the
+    reach points, per point a 0.7 m include and a 0.2 m exclude disc, orientation facing
+    the mean, height 0. Returns the mean (the validator's reach point)."""
+    mu, cov = pose_covariance(points, POSE_MINVAR)
+    cm.add("pose-distribution", gaussian(mu, cov), 5)
+    for p in points:
+        cm.add(cm.unique_name("reach-range"), _range_fn(p[0], p[1], IN_REACH_DISTANCE, False), 7)
+        cm.add(
+            cm.unique_name("reach-minimal-range"),
+            _range_fn(p[0], p[1], REACH_MINIMAL_DISTANCE, True),
+            6,
+        )
+    cm.add_orientation(facing(*mu))
+    cm.add_height(constant_height(0.0))
+    return mu
+
+
+def _clear_rays(
+    client: int, starts: Array, ends: Array, exclude: frozenset[int], tolerance: float = 0.02
+) -> Array:
+    """For each ray, whether nothing but ``exclude`` bodies lies on it up to ``tolerance``
+    before its end. Rays that hit an excluded body are cast on from just behind the hit."""
+    n = len(starts)
+    clear = np.zeros(n, dtype=bool)
+    todo = np.arange(n)
+    cur = starts.astype(float).copy()
+    batch = pb.MAX_RAY_INTERSECTION_BATCH_SIZE
+    for _ in range(6):
+        if todo.size == 0:
+            break
+        again: list[int] = []
+        for k in range(0, todo.size, batch):
+            part = todo[k : k + batch]
+            res = pb.rayTestBatch(cur[part].tolist(), ends[part].tolist(), physicsClientId=client)
+            for i, r in zip(part, res):
+                body = r[0]
+                if body < 0:
+                    clear[i] = True
+                    continue
+                seg = ends[i] - cur[i]
+                length = float(np.linalg.norm(seg))
+                if (1.0 - r[2]) * length <= tolerance:
+                    clear[i] = True
+                elif body in exclude:
+                    cur[i] = np.asarray(r[3]) + seg / max(length, 1e-9) * 1e-3
+                    again.append(int(i))
+        todo = np.asarray(again, dtype=int)
+    return clear
+
+
+def add_visible_for(
+    cm: Costmap,
+    client: int,
+    target: Sequence[float],
+    exclude: frozenset[int],
+    heights: Sequence[float] = CAMERA_HEIGHTS,
+) -> None:
+    """``visible-for``: Gaussian around the target (minvar 0.5), range 2 m, orientation
+    facing it, height 0, and the visibility factor (score 20, expensive): for each cell of
+    the 2 x 2 m window around the target closer than 1 m (horizontally), the fraction of
+    rays from the camera heights above the cell to the target that nothing but the
+    ``exclude`` bodies blocks (PyBullet ``rayTestBatch``; CRAM renders depth images)."""
+    tx, ty, tz = (float(v) for v in target[:3])
+    mu, cov = pose_covariance([target], POSE_MINVAR)
+    cm.add("pose-distribution", gaussian(mu, cov), 5)
+    cm.add("visibility-range", _range_fn(tx, ty, VISIBILITY_SIZE, False), 7)
+    hs = np.asarray(heights, dtype=float)
+    half = VISIBILITY_SIZE / 2.0
+
+    def f(x: Array, y: Array) -> Array:
+        out = np.zeros_like(x)
+        idx = np.nonzero(np.hypot(x - tx, y - ty) < half)[0]
+        if idx.size == 0:
+            return out
+        k = hs.size
+        starts = np.empty((idx.size * k, 3))
+        starts[:, 0] = np.repeat(x[idx], k)
+        starts[:, 1] = np.repeat(y[idx], k)
+        starts[:, 2] = np.tile(hs, idx.size)
+        ends = np.tile(np.asarray([tx, ty, tz]), (starts.shape[0], 1))
+        clear = _clear_rays(client, starts, ends, exclude)
+        out[idx] = clear.reshape(idx.size, k).mean(axis=1)
+        return out
+
+    cm.add("visibility", f, 20, expensive=True)
+    cm.add_orientation(facing(tx, ty))
+    cm.add_height(constant_height(0.0))
+
+
+def add_on_box(
+    cm: Costmap,
+    label: str,
+    lo: Sequence[float],
+    hi: Sequence[float],
+    object_height: float | None = None,
+) -> None:
+    """``on``: 1 strictly inside the surface's AABB (score 5); height its top, or top +
+    ``object_height`` / 2 with ``for``."""
+    cm.add(f"on-bounding-box-{label}", _box_fn(lo, hi), 5)
+    top = float(hi[2]) + (object_height / 2.0 if object_height is not None else 0.0)
+    cm.add_height(constant_height(top))
+
+
+def add_in_box(cm: Costmap, label: str, lo: Sequence[float], hi: Sequence[float]) -> None:
+    """``in``: 1 strictly inside the container's AABB (score 5); height its bottom +
+    :data:`BOARD_THICKNESS`."""
+    cm.add(f"in-bounding-box-{label}", _box_fn(lo, hi), 5)
+    z = float(lo[2]) + BOARD_THICKNESS
+    cm.add_height(constant_height(z))
+
+
+_SIDES: Final = {"front": (0, False), "back": (0, True), "right": (1, False), "left": (1, True)}
+
+
+def add_side(cm: Costmap, side: str, origin: Sequence[float]) -> None:
+    """``side``: HEAD's world-axes half-plane through the link origin (score 5): front
+    x < lx, back x > lx, right y < ly, left y > ly. Unknown side -> ValueError."""
+    if side not in _SIDES:
+        raise ValueError(f"unknown side {side!r}; known sides: {', '.join(_SIDES)}")
+    axis, greater = _SIDES[side]
+    c = float(origin[axis])
+
+    def f(x: Array, y: Array) -> Array:
+        v = x if axis == 0 else y
+        return (v > c if greater else v < c).astype(float)
+
+    cm.add(f"side-{side}", f, 5)
+
+
+def add_range(cm: Costmap, origin: Sequence[float], r: float, invert: bool) -> None:
+    """``range`` / ``range-invert``: keep distance <= r (>= r inverted) from the link
+    origin's xy (score 2)."""
+    base = "range-invert" if invert else "range"
+    cm.add(cm.unique_name(base), _range_fn(float(origin[0]), float(origin[1]), r, invert), 2)
+
+
+def slot_centres(
+    lo: Sequence[float],
+    hi: Sequence[float],
+    paddings: Sequence[float],
+    object_type: str,
+    count: int,
+    yaw: float = 0.0,
+) -> list[tuple[float, float]]:
+    """Table-setting slot centres in map xy (CRAM's ``make-slot-cost-function``) for a
+    surface AABB, paddings (x+, x-, y+, y-), the object type and ``object-count``."""
+    xp, xm, yp, ym = paddings
+    smax, smin = SLOT_SIZES.get(object_type, (0.8, 0.5))
+    dims = (hi[0] - lo[0] - (xp + xm), hi[1] - lo[1] - (yp + ym))
+    centre = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0)
+    shift = ((xm - xp) / 2.0, (ym - yp) / 2.0)
+    long_axis = 0 if dims[0] >= dims[1] else 1
+    length, short = dims[long_axis], dims[1 - long_axis]
+    if length <= 0 or short <= 0:
+        return []
+    n = min(int(count), 2 * math.floor(length / smin))
+    if n <= 0:
+        return []
+    n_pref, n_other = math.ceil(n / 2), n // 2
+    d = min(length / n_pref, smax)
+    c = short / 2.0 - smin / 2.0
+    local: list[tuple[float, float]] = []
+    for k, across in ((n_pref, c), (n_other, -c)):
+        for i in range(k):
+            along = (k - 1) / 2.0 * d - i * d
+            local.append((along, across) if long_axis == 0 else (across, along))
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    ox = centre[0] + cy * shift[0] - sy * shift[1]
+    oy = centre[1] + sy * shift[0] + cy * shift[1]
+    return [(ox + cy * a - sy * b, oy + sy * a + cy * b) for a, b in local]
+
+
+def add_slots(
+    cm: Costmap,
+    label: str,
+    lo: Sequence[float],
+    hi: Sequence[float],
+    object_type: str,
+    count: int,
+    yaw: float = 0.0,
+) -> list[tuple[float, float]]:
+    """``context table-setting`` + ``on`` + ``for`` + ``object-count`` (score 6): 1 within
+    the type's position-deviation threshold of a slot centre. Returns the centres."""
+    centres = slot_centres(lo, hi, SLOT_PADDINGS.get(label, (0.03,) * 4), object_type, count, yaw)
+    thr = SLOT_THRESHOLDS.get(object_type, 0.1)
+    pts = np.asarray(centres, dtype=float).reshape(-1, 2)
+
+    def f(x: Array, y: Array) -> Array:
+        if pts.size == 0:
+            return np.zeros_like(x)
+        d = np.hypot(x[:, None] - pts[None, :, 0], y[:, None] - pts[None, :, 1]).min(axis=1)
+        return np.asarray(d <= thr, dtype=float)
+
+    cm.add("table-setting-slots", f, 6)
+    return centres
+
+
+def near_size(object_type: str | None, size: Sequence[float]) -> float:
+    """The reference size of ``near``/``far-from`` by shape: circle (bowl, plate) AABB x;
+    complex (mug, pot) min(x, y), i.e. the body without its handle; rectangle min(x, y)."""
+    shape = _SHAPES.get(object_type or "", "rectangle")
+    if shape == "circle":
+        return float(size[0])
+    if shape == "oval":
+        return float(max(size[0], size[1]))
+    return float(min(size[0], size[1]))
+
+
+def near_padding(object_type: str | None) -> float:
+    """Padding by type: bowl 0.03, cup 0.1, mug 0.01, plate 0.005, default 0.01."""
+    return _NEAR_PADDINGS.get(object_type or "", 0.01)
+
+
+def add_near(
+    cm: Costmap, centre: Sequence[float], s_ref: float, p_ref: float, s_for: float, p_for: float
+) -> None:
+    """``near``: exclude a disc of radius sR/2 + pR + pF + sF/2, include one of that + (sR +
+    sF) / 2, and a Gaussian with σ = 1 around the reference (score 5)."""
+    r_min = s_ref / 2 + p_ref + p_for + s_for / 2
+    width = (s_ref + s_for) * 0.5 * 1.0
+    cx, cy = float(centre[0]), float(centre[1])
+    cm.add(cm.unique_name("near-exclude"), _range_fn(cx, cy, r_min, True), 5)
+    cm.add(cm.unique_name("near-include"), _range_fn(cx, cy, r_min + width, False), 5)
+    cm.add(cm.unique_name("near-gauss"), gaussian((cx, cy), np.eye(2)), 5)
+
+
+def add_far_from(
+    cm: Costmap, centre: Sequence[float], s_ref: float, p_ref: float, s_for: float, p_for: float
+) -> None:
+    """``far-from``: a ring from 1.5 sR + 3 pR + pF + sF/2 (if sR > sF; else sR/2 + pR + 3 pF
+    + 1.5 sF) of width (sR + sF) / 2 * 5 (score 5)."""
+    if s_ref > s_for:
+        r_min = 1.5 * s_ref + 3 * p_ref + p_for + s_for / 2
+    else:
+        r_min = s_ref / 2 + p_ref + 3 * p_for + 1.5 * s_for
+    width = (s_ref + s_for) * 0.5 * 5.0
+    cx, cy = float(centre[0]), float(centre[1])
+    cm.add(cm.unique_name("far-exclude"), _range_fn(cx, cy, r_min, True), 5)
+    cm.add(cm.unique_name("far-include"), _range_fn(cx, cy, r_min + width, False), 5)
+
+
+def closest_edge(
+    lo: Sequence[float], hi: Sequence[float], point: Sequence[float], yaw: float = 0.0
+) -> str:
+    """The supporting body's edge closest to ``point`` in the body frame: ``front`` (-x),
+    ``back`` (+x), ``right`` (-y) or ``left`` (+y); distances to the short edges are
+    scaled by the aspect ratio so that long edges are preferred."""
+    cx, cy = (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0
+    a, b = (hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0
+    c, s = math.cos(-yaw), math.sin(-yaw)
+    dx, dy = point[0] - cx, point[1] - cy
+    x, y = c * dx - s * dy, s * dx + c * dy
+    x_edge = "back" if x >= 0 else "front"
+    y_edge = "left" if y >= 0 else "right"
+    dist_x = a - abs(x)  # to the edge perpendicular to x
+    dist_y = b - abs(y)  # to the edge perpendicular to y
+    if b > a:
+        dist_y *= b / a
+    elif a > b:
+        dist_x *= a / b
+    return x_edge if dist_x <= dist_y else y_edge
+
+
+#: (edge, relation) -> (axis, greater) of the potential field, in the body frame.
+_RELATIONS: Final = {
+    "front": {
+        "left-of": (1, True),
+        "right-of": (1, False),
+        "behind": (0, True),
+        "in-front-of": (0, False),
+    },
+    "back": {
+        "left-of": (1, False),
+        "right-of": (1, True),
+        "behind": (0, False),
+        "in-front-of": (0, True),
+    },
+    "right": {
+        "left-of": (0, False),
+        "right-of": (0, True),
+        "behind": (1, True),
+        "in-front-of": (1, False),
+    },
+    "left": {
+        "left-of": (0, True),
+        "right-of": (0, False),
+        "behind": (1, False),
+        "in-front-of": (1, True),
+    },
+}
+RELATIONS: Final = ("left-of", "right-of", "in-front-of", "behind")
+
+
+def add_relation(
+    cm: Costmap,
+    relation: str,
+    reference: Sequence[float],
+    support: Box2 | None,
+    edge: str,
+    yaw: float = 0.0,
+) -> None:
+    """``left-of`` / ``right-of`` / ``in-front-of`` / ``behind``: the supporting body's
+    AABB (score 9, when there is one) and the potential field (score 7) at the reference's
+    xy in the body's frame: |p_axis| / |p| where the relation's predicate holds and that is
+    > 0.2, else 0."""
+    if relation not in RELATIONS:
+        raise ValueError(f"unknown relation {relation!r}; known: {', '.join(RELATIONS)}")
+    if support is not None:
+        cm.add("supporting-object", _box_fn(support[0], support[1]), 9)
+    axis, greater = _RELATIONS[edge][relation]
+    ox, oy = float(reference[0]), float(reference[1])
+    c, s = math.cos(yaw), math.sin(yaw)
+
+    def f(x: Array, y: Array) -> Array:
+        dx, dy = x - ox, y - oy
+        px, py = c * dx + s * dy, -s * dx + c * dy
+        pa = px if axis == 0 else py
+        norm = np.hypot(px, py)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            v = np.where(norm > 0, np.abs(pa) / np.where(norm > 0, norm, 1.0), 0.0)
+        ok = (pa > 0) if greater else (pa < 0)
+        return np.where(ok & (v > 0.2), v, 0.0)
+
+    cm.add(cm.unique_name(f"potential-field-{relation}"), f, 7)

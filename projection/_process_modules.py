@@ -1,0 +1,261 @@
+"""The six projection process modules (CRAM's ``pr2-proj-navigation``, ``-torso``, ``-ptu``,
+``-perception``, ``-grippers``, ``-arms``): each resolves its motion designator to a
+:class:`executive.MotionCommand` and calls the :class:`~projection._world.World`'s
+low-level function, which teleports (projected motions are instantaneous, as in CRAM).
+
+=============  ===========================================================  ================
+module         motion types                                                 world function
+=============  ===========================================================  ================
+navigation     going                                                        ``drive``
+torso          moving-torso                                                 ``move_torso``
+ptu            looking                                                      ``look_at``
+perception     detecting                                                    ``detect``
+grippers       opening-gripper, closing-gripper, gripping,                  ``gripper``
+               moving-gripper-joint; opening/closing with a ``gripper``
+arms           moving-tcp, moving-arm-joints                                ``move_tcp``,
+                                                                            ``move_joints``
+=============  ===========================================================  ================
+
+Failures are the world's typed low-level failures (``NavigationPoseUnreachable``,
+``TorsoGoalNotReached``, ``PtuGoalNotReached``, ``PerceptionObjectNotFound``,
+``GripperClosedCompletely``/``GripperGoalNotReached``, ``ManipulationPoseUnreachable``,
+``ManipulationGoalNotReached``); the world is unchanged when one is raised.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import pybullet as pb
+
+import executive
+from executive import Designator, MotionCommand, Pose, ProcessModule, an, equate
+from executive.events import ObjectPerceived, emit
+from executive.failures import ManipulationGoalNotReached, PtuGoalNotReached
+from projection._world import World
+
+__all__ = [
+    "ArmsPM",
+    "GrippersPM",
+    "NavigationPM",
+    "PerceptionPM",
+    "ProjectionProcessModule",
+    "PtuPM",
+    "TorsoPM",
+    "projection_process_modules",
+]
+
+_PTU_TOLERANCE = 1e-5
+
+
+class ProjectionProcessModule(ProcessModule):
+    """A process module acting on one :class:`World`. Subclasses implement
+    :meth:`run` for each resolved command; a command this module does not know raises
+    :class:`executive.DesignatorError`."""
+
+    commands: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, world: World, name: str) -> None:
+        if not isinstance(world, World):
+            raise TypeError(f"a projection process module needs a projection.World, got {world!r}")
+        super().__init__(name)
+        self.world = world
+
+    async def execute(self, motion: Designator) -> Any:
+        command, args = motion.reference()
+        if command not in self.commands:
+            raise executive.DesignatorError(
+                f"process module {self.name!r} cannot execute the command {command!r} of "
+                f"{motion.short()} (it executes {', '.join(sorted(self.commands))})",
+                motion,
+            )
+        return self.run(MotionCommand(command, args), motion)
+
+    @abc.abstractmethod
+    def run(self, command: MotionCommand, motion: Designator) -> Any:
+        """Execute one resolved command (synchronously: projected motions teleport)."""
+
+
+class NavigationPM(ProjectionProcessModule):
+    """``going`` -> :meth:`World.drive`; a pose in collision raises
+    :class:`executive.NavigationPoseUnreachable` with the robot where it was."""
+
+    motion_types = frozenset({"going"})
+    commands = frozenset({"move-base"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "navigation")
+
+    def run(self, command: MotionCommand, motion: Designator) -> None:
+        self.world.drive(command.arguments["pose"])
+
+
+class TorsoPM(ProjectionProcessModule):
+    """``moving-torso`` -> :meth:`World.move_torso`; outside the joint limits raises
+    :class:`executive.TorsoGoalNotReached`."""
+
+    motion_types = frozenset({"moving-torso"})
+    commands = frozenset({"move-torso"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "torso")
+
+    def run(self, command: MotionCommand, motion: Designator) -> None:
+        self.world.move_torso(command.arguments["joint_angle"])
+
+
+class PtuPM(ProjectionProcessModule):
+    """``looking`` -> :meth:`World.look_at` (a pose; a frame: its origin, ``map`` and
+    ``base_footprint`` included; ``forward``) or, for ``joint-states`` ``(pan, tilt)``,
+    the head joints directly. Beyond the pan/tilt limits raises
+    :class:`executive.PtuGoalNotReached`, head unchanged; an unknown frame
+    :class:`LookupError`."""
+
+    motion_types = frozenset({"looking"})
+    commands = frozenset({"move-head"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "ptu")
+        c, robot = world.client, world.robot_body
+        self._head: dict[str, tuple[int, float, float]] = {}
+        for i in range(pb.getNumJoints(robot, physicsClientId=c)):
+            info = pb.getJointInfo(robot, i, physicsClientId=c)
+            if info[1].decode() in ("head_pan_joint", "head_tilt_joint"):
+                self._head[info[1].decode()] = (i, float(info[8]), float(info[9]))
+
+    def run(self, command: MotionCommand, motion: Designator) -> None:
+        args = command.arguments
+        if args.get("pose") is not None:
+            self.world.look_at(args["pose"])
+        elif args.get("frame") is not None:
+            frame = args["frame"]
+            if frame in ("map", "base_footprint"):
+                self.world.look_at(Pose(frame=frame))
+            else:
+                self.world.look_at(frame)
+        elif args.get("direction") is not None:
+            self.world.look_at("forward")
+        else:
+            self._set_head(args.get("joint_states"))
+
+    def _set_head(self, states: Any) -> None:
+        if (
+            not isinstance(states, (tuple, list))
+            or len(states) != 2
+            or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in states
+            )
+        ):
+            raise ValueError(f"looking joint-states must be (pan, tilt) in radians, got {states!r}")
+        c, robot = self.world.client, self.world.robot_body
+        goals = []
+        for joint, value in zip(("head_pan_joint", "head_tilt_joint"), states):
+            i, lo, hi = self._head[joint]
+            if not lo - _PTU_TOLERANCE <= value <= hi + _PTU_TOLERANCE:
+                raise PtuGoalNotReached(
+                    f"{joint} {value:.3f} beyond its limits [{lo:.3f}, {hi:.3f}]",
+                    target=tuple(states),
+                )
+            goals.append((i, min(max(float(value), lo), hi)))
+        for i, value in goals:
+            pb.resetJointState(robot, i, value, 0.0, physicsClientId=c)
+
+
+class PerceptionPM(ProjectionProcessModule):
+    """``detecting`` -> :meth:`World.detect`. Returns a new object designator
+    ``(type T) (name N) (pose <map pose>) (transform <base_footprint -> N>)`` followed by
+    the input's other properties, equated to the input designator, for the first visible
+    match, and emits :class:`executive.events.ObjectPerceived`. Nothing visible raises
+    :class:`executive.PerceptionObjectNotFound`."""
+
+    motion_types = frozenset({"detecting"})
+    commands = frozenset({"detect"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "perception")
+
+    def run(self, command: MotionCommand, motion: Designator) -> Designator:
+        wanted: Designator = command.arguments["object"]
+        found = self.world.detect(wanted)[0]
+        own = {"type", "name", "pose", "transform"}
+        perceived = an.object(
+            ("type", found.type),
+            ("name", found.name),
+            ("pose", found.map_pose),
+            ("transform", found.transform),
+            *((k, v) for k, v in wanted.properties if k not in own),
+        )
+        original = motion.get("object")
+        equate(original if isinstance(original, Designator) else wanted, perceived)
+        emit(ObjectPerceived(perceived))
+        return perceived
+
+
+class GrippersPM(ProjectionProcessModule):
+    """``opening-gripper``/``closing-gripper``/``gripping``/``moving-gripper-joint`` (and
+    ``opening``/``closing`` that carry a ``gripper``) -> :meth:`World.gripper`. The joint
+    angle of ``moving-gripper-joint`` is the opening in metres. Raises
+    :class:`executive.GripperClosedCompletely` when gripping nothing (the gripper stays
+    closed), :class:`executive.GripperGoalNotReached` for an opening outside [0, 0.1]."""
+
+    motion_types = frozenset(
+        {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
+    )
+    commands = frozenset({"move-gripper-joint"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "grippers")
+
+    def accepts(self, motion: Designator) -> bool:
+        return motion.type in self.motion_types or (
+            motion.type in ("opening", "closing") and "gripper" in motion
+        )
+
+    def run(self, command: MotionCommand, motion: Designator) -> None:
+        args = command.arguments
+        action = args["action"]
+        goal = args["joint_angle"] if action == "angle" else action
+        self.world.gripper(goal, args["gripper"])
+
+
+class ArmsPM(ProjectionProcessModule):
+    """``moving-tcp`` -> :meth:`World.move_tcp` (IK with torso resampling; the collision
+    mode is ignored, as in CRAM) and ``moving-arm-joints`` -> :meth:`World.move_joints`.
+    No IK solution raises :class:`executive.ManipulationPoseUnreachable`; joint values of
+    the wrong count or outside the limits :class:`executive.ManipulationGoalNotReached`;
+    the arms are unchanged on failure."""
+
+    motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
+    commands = frozenset({"move-tcp", "move-joints"})
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "arms")
+
+    def run(self, command: MotionCommand, motion: Designator) -> None:
+        args: Mapping[str, Any] = command.arguments
+        if command.command == "move-tcp":
+            self.world.move_tcp(left=args.get("left"), right=args.get("right"))
+            return
+        try:
+            self.world.move_joints(left=args.get("left"), right=args.get("right"))
+        except ValueError as exc:
+            raise ManipulationGoalNotReached(
+                str(exc), left=args.get("left"), right=args.get("right")
+            ) from exc
+
+
+def projection_process_modules(world: World) -> tuple[ProjectionProcessModule, ...]:
+    """New instances of the six modules on ``world``, in CRAM's order (navigation, torso,
+    ptu, perception, grippers, arms). ``TypeError`` if ``world`` is not a World."""
+    return (
+        NavigationPM(world),
+        TorsoPM(world),
+        PtuPM(world),
+        PerceptionPM(world),
+        GrippersPM(world),
+        ArmsPM(world),
+    )

@@ -1,0 +1,1027 @@
+"""The simulated *real* robot: a second PyBullet :class:`World` is the true world, the
+robot's belief is another; plans and projection reason on the belief, the real process
+modules act on the truth and sense it.
+
+- **Time.** Every motion takes simulated time on the cpl clock (``cpl.sleep``) in
+  :data:`CONTROL_PERIOD` steps: the base drives along a straight line while turning at
+  :data:`BASE_VELOCITY` / :data:`BASE_ANGULAR_VELOCITY` (each step a teleport with a
+  collision check: a collision on the way stops the robot where it was and raises
+  :class:`executive.NavigationGoalNotReached`); arm, torso, head and finger motions take
+  ``max joint delta / joint velocity limit``. Who picks the clock is the caller
+  (``cpl.run(..., clock=real_robot_clock(speed))``).
+- **Physics.** The true world is stepped at :data:`PHYSICS_RATE` Hz for the simulated time
+  that passed (once, however many modules move), with the robot and the objects it holds
+  kinematic, so free objects settle, slip off, fall or are pushed by the robot. Stepping is
+  skipped while every free object rests and none touches the robot.
+- **Belief.** The robot knows its own state: after every step the belief robot (base,
+  joints, held objects) is set to the true one. Objects are learned by perception only:
+  ``detect`` returns poses with Gaussian noise (x, y, yaw; z is kept), misses an object at
+  ``miss_rate``, and :class:`RealWorldModel` puts what was perceived into the belief.
+- **Faults.** A seeded :class:`FaultProfile` injects typed low-level failures at given
+  rates; each kind draws from its own generator (spawned from the seed), so a kind's fault
+  sequence does not depend on how often the others were drawn.
+"""
+
+from __future__ import annotations
+
+import abc
+import asyncio
+import math
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
+from contextlib import asynccontextmanager
+from dataclasses import dataclass, fields, replace
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import pybullet as pb
+
+import cpl
+import executive
+from cpl.testing import MockClock
+from executive import Designator, MotionCommand, Pose, ProbeResult, ProcessModule, an, equate
+from executive.events import (
+    ContainerClosed,
+    ContainerOpened,
+    Event,
+    ObjectAttached,
+    ObjectDetached,
+    ObjectPerceived,
+    RobotStateChanged,
+    emit,
+    object_name,
+)
+from executive.failures import (
+    GripperClosedCompletely,
+    ManipulationGoalNotReached,
+    ManipulationPoseUnreachable,
+    NavigationGoalNotReached,
+    NavigationPoseUnreachable,
+    PerceptionObjectNotFound,
+    PtuGoalNotReached,
+)
+from projection._objects import object_type
+from projection._process_modules import PtuPM
+from projection._world import World
+from projection._world_model import DETACH_SETTLE_STEPS, ProjectedWorldModel
+
+__all__ = [
+    "ARM_JOINT_VELOCITY",
+    "BASE_ANGULAR_VELOCITY",
+    "BASE_VELOCITY",
+    "CONTROL_PERIOD",
+    "DEMO_OBJECTS",
+    "DETECTION_TIME",
+    "FINGER_VELOCITY",
+    "HEAD_JOINT_VELOCITY",
+    "PHYSICS_RATE",
+    "TORSO_VELOCITY",
+    "FaultProfile",
+    "RealWorldModel",
+    "make_world_pair",
+    "real_process_modules",
+    "real_robot_clock",
+    "with_real_robot",
+]
+
+BASE_VELOCITY = 0.6  #: m/s, the base's linear velocity limit
+BASE_ANGULAR_VELOCITY = 1.0  #: rad/s, the base's angular velocity limit
+ARM_JOINT_VELOCITY = 1.0  #: rad/s, every arm joint
+TORSO_VELOCITY = 0.05  #: m/s, the torso lift
+HEAD_JOINT_VELOCITY = 2.0  #: rad/s, pan and tilt
+FINGER_VELOCITY = 0.05  #: m/s per finger joint (the opening changes twice as fast)
+DETECTION_TIME = 0.5  #: s one detection takes
+CONTROL_PERIOD = 0.05  #: s of simulated time per motion step
+PHYSICS_RATE = 240.0  #: Hz of the true world's physics
+MAX_CATCH_UP = 2.0  #: s of physics simulated at most for one step (after a long idle time)
+_FAULT_FRACTION = (0.2, 0.8)  #: where along a motion a mid-way fault strikes
+_AT_REST = (1e-3, 1e-2)  #: linear (m/s) and angular (rad/s) speeds of an object at rest
+_PREFIX = {"left": "l", "right": "r"}
+_DRAWER_LINK = "sink_area_left_upper_drawer_main"
+
+SceneObject = tuple[str, Pose] | tuple[str, Pose, str]
+
+#: CRAM's demo objects (map; z is replaced by the resting height on the sink counter; the
+#: spoon lies in the drawer, attached to it): name -> (type, pose[, attached link]).
+DEMO_OBJECTS: Mapping[str, SceneObject] = {
+    "breakfast-cereal-1": ("breakfast-cereal", Pose((1.4, 0.4, 0.85))),
+    "cup-1": ("cup", Pose((1.3, 0.6, 0.9))),
+    "bowl-1": ("bowl", Pose((1.4, 0.8, 0.87))),
+    "milk-1": ("milk", Pose.from_xyz_yaw(1.4, 0.62, 0.95, math.pi)),
+    "spoon-1": ("spoon", Pose.from_xyz_yaw(1.4, 1.0, 0.74132, math.pi), _DRAWER_LINK),
+}
+
+
+# ----------------------------------------------------------------------- fault profile
+@dataclass(frozen=True)
+class FaultProfile:
+    """Which low-level failures the real robot injects, and how well it sees.
+
+    Rates are probabilities per motion: ``navigation`` (``going`` stops part of the way:
+    :class:`executive.NavigationGoalNotReached`), ``ptu`` (``looking`` stops part of the
+    way: :class:`executive.PtuGoalNotReached`), ``perception`` (a detection fails:
+    :class:`executive.PerceptionObjectNotFound`), ``grasp_slip`` (a grip that closed on an
+    object loses it: :class:`executive.GripperClosedCompletely`, nothing held), ``drop``
+    (after a successful grip, the object falls out during the next arm motion of that arm,
+    which then raises :class:`executive.GripperClosedCompletely`), ``ik`` (``moving-tcp``
+    finds no IK solution: :class:`executive.ManipulationPoseUnreachable`).
+    ``detection_noise`` = (position std in m, applied to x and y; yaw std in rad);
+    ``miss_rate``: probability that a visible object is not seen. ``seed`` seeds every
+    draw (None: fresh entropy). Values outside [0, 1] or negative noise: ValueError.
+    """
+
+    navigation: float = 0.0
+    ptu: float = 0.0
+    perception: float = 0.0
+    grasp_slip: float = 0.0
+    drop: float = 0.0
+    ik: float = 0.0
+    detection_noise: tuple[float, float] = (0.01, 0.03)
+    miss_rate: float = 0.0
+    seed: int | None = 0
+
+    #: The failure kinds (the fields that :meth:`uniform` sets).
+    KINDS: ClassVar[tuple[str, ...]] = ("navigation", "ptu", "perception", "grasp_slip", "drop", "ik")
+
+    def __post_init__(self) -> None:
+        for key in (*self.KINDS, "miss_rate"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"FaultProfile.{key} must be a number in [0, 1], got {value!r}")
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"FaultProfile.{key} must be in [0, 1], got {value!r}")
+        noise = tuple(self.detection_noise)
+        if len(noise) != 2 or not all(
+            isinstance(v, (int, float)) and math.isfinite(v) and v >= 0 for v in noise
+        ):
+            raise ValueError(
+                "FaultProfile.detection_noise is (position std m, yaw std rad), both >= 0, "
+                f"got {self.detection_noise!r}"
+            )
+        object.__setattr__(self, "detection_noise", (float(noise[0]), float(noise[1])))
+        if self.seed is not None and (isinstance(self.seed, bool) or not isinstance(self.seed, int)):
+            raise TypeError(f"FaultProfile.seed must be an int or None, got {self.seed!r}")
+
+    @classmethod
+    def uniform(cls, rate: float, **others: Any) -> FaultProfile:
+        """Every failure kind (:attr:`KINDS`) at ``rate``; ``others`` set the remaining
+        fields (``detection_noise``, ``miss_rate``, ``seed``)."""
+        return cls(**{kind: rate for kind in cls.KINDS}, **others)
+
+    @classmethod
+    def none(cls, seed: int | None = 0) -> FaultProfile:
+        """A perfect robot: no failures, no misses, no detection noise."""
+        return cls(detection_noise=(0.0, 0.0), seed=seed)
+
+    @classmethod
+    def parse(cls, text: str) -> FaultProfile:
+        """From a command-line string: ``"0.1"`` (uniform), or comma-separated
+        ``key=value`` items (keys: the kinds, ``miss_rate``, ``seed``,
+        ``detection_noise=POS:YAW``), optionally led by a bare uniform rate:
+        ``"0.05,grasp_slip=0.2,seed=3"``. Malformed text: ValueError naming the keys."""
+        known = {f.name for f in fields(cls)}
+        values: dict[str, Any] = {}
+        items = [item.strip() for item in text.split(",") if item.strip()]
+        if not items:
+            raise ValueError("an empty fault profile; give a rate like '0.1' or 'ik=0.2'")
+        for k, item in enumerate(items):
+            key, sep, raw = item.partition("=")
+            key = key.strip().replace("-", "_")
+            try:
+                if not sep:
+                    if k != 0:
+                        raise ValueError(item)
+                    values.update({kind: float(key) for kind in cls.KINDS})
+                elif key not in known:
+                    raise ValueError(item)
+                elif key == "seed":
+                    values[key] = None if raw.strip().lower() == "none" else int(raw)
+                elif key == "detection_noise":
+                    pos, _, yaw = raw.partition(":")
+                    values[key] = (float(pos), float(yaw or 0.0))
+                else:
+                    values[key] = float(raw)
+            except ValueError:
+                raise ValueError(
+                    f"bad fault profile item {item!r} in {text!r}: use a rate or key=value "
+                    f"with keys {', '.join(sorted(known))}"
+                ) from None
+        return cls(**values)
+
+    @property
+    def rates(self) -> Mapping[str, float]:
+        """Failure kind -> rate."""
+        return {kind: getattr(self, kind) for kind in self.KINDS}
+
+
+# ----------------------------------------------------------------------- clocks
+def real_robot_clock(speed: float | None = None) -> cpl.Clock:
+    """The clock to run a real-robot plan on (``cpl.run(main, clock=...)``): ``None`` or
+    ``math.inf``: as fast as possible (``MockClock(autojump=True)``); otherwise simulated
+    time runs ``speed`` times faster than the wall clock (``ScaledClock(speed)``;
+    ``1.0`` = real time). Not > 0: ValueError."""
+    if speed is None or speed == math.inf:
+        return MockClock(autojump=True)
+    return cpl.ScaledClock(speed)
+
+
+def _check_clock(speed: float) -> None:
+    """Raise ValueError unless the running loop runs at ``speed`` (see with_real_robot)."""
+    loop = asyncio.get_running_loop()
+    clock = getattr(loop.time, "__self__", None)
+    if isinstance(clock, MockClock):
+        rate = math.inf
+    elif isinstance(clock, cpl.ScaledClock):
+        rate = clock.factor
+    elif isinstance(clock, cpl.Clock):
+        rate = 1.0
+    else:
+        rate = 1.0  # the loop's own monotonic time
+    if rate != speed:
+        raise ValueError(
+            f"with_real_robot(speed={speed}) but the loop runs at {rate}x wall time: run the "
+            f"plan with cpl.run(..., clock=projection.real_robot_clock({speed}))"
+        )
+
+
+# ----------------------------------------------------------------------- the body
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _robot_links(world: World) -> dict[str, int]:
+    c, robot = world.client, world.robot_body
+    return {
+        pb.getJointInfo(robot, i, physicsClientId=c)[12].decode(): i
+        for i in range(pb.getNumJoints(robot, physicsClientId=c))
+    }
+
+
+def sync_robot(true_world: World, belief_world: World) -> None:
+    """Set the belief robot's base and joints to the true robot's; objects the belief robot
+    holds follow. Nothing else in the belief changes."""
+    truth = true_world.snapshot()
+    belief = belief_world.snapshot()
+    if belief.base == truth.base and belief.robot_joints == truth.robot_joints:
+        return
+    belief_world.restore(replace(belief, base=truth.base, robot_joints=truth.robot_joints))
+    links = _robot_links(belief_world)
+    for name, link, (rp, rq) in belief.attachments:
+        if link in links:
+            lp = belief_world.link_pose(link)
+            pos, orn = pb.multiplyTransforms(lp.position, lp.orientation, rp, rq)
+            belief_world.set_object_pose(name, Pose(pos, orn))
+
+
+class _Body:
+    """The true robot shared by the six real modules: worlds, fault generators, the physics
+    clock and the drops armed by grips."""
+
+    def __init__(self, true_world: World, belief_world: World, faults: FaultProfile) -> None:
+        self.true = true_world
+        self.belief = belief_world
+        self.faults = faults
+        streams = np.random.SeedSequence(faults.seed).spawn(len(FaultProfile.KINDS) + 2)
+        self.rngs = {
+            kind: np.random.default_rng(s) for kind, s in zip(FaultProfile.KINDS, streams)
+        }
+        self.noise_rng = np.random.default_rng(streams[-2])
+        self.miss_rng = np.random.default_rng(streams[-1])
+        self.physics_time: float | None = None
+        self.drops: dict[str, float] = {}  # arm -> fraction of its next motion
+        c, robot = true_world.client, true_world.robot_body
+        self.robot_links = [-1, *range(pb.getNumJoints(robot, physicsClientId=c))]
+        links = _robot_links(true_world)
+        self.gripper_links = {
+            arm: [i for n, i in links.items() if n.startswith(f"{p}_gripper")]
+            for arm, p in _PREFIX.items()
+        }
+        self.head = {
+            j: i for j, i in _joint_indices(true_world).items() if j.startswith("head_")
+        }
+
+    # -- faults -------------------------------------------------------------------
+    def fault(self, kind: str) -> float | None:
+        """Draw a fault of ``kind``: the fraction of the motion at which it strikes, or
+        None. Always draws twice, so the sequence depends only on the number of draws."""
+        rng = self.rngs[kind]
+        strike = float(rng.random())
+        fraction = float(rng.uniform(*_FAULT_FRACTION))
+        return fraction if strike < getattr(self.faults, kind) else None
+
+    # -- time and physics ---------------------------------------------------------
+    async def step(self, seconds: float) -> None:
+        """Let ``seconds`` of simulated time pass (cpl.sleep), then catch physics up."""
+        await cpl.sleep(seconds)
+        self.physics()
+
+    def physics(self) -> None:
+        """Step the true world's physics up to the loop's current time (at most
+        :data:`MAX_CATCH_UP` s at once), robot and held objects kinematic."""
+        now = asyncio.get_running_loop().time()
+        last = self.physics_time
+        self.physics_time = now
+        if last is None or now <= last:
+            return
+        steps = round(min(now - last, MAX_CATCH_UP) * PHYSICS_RATE)
+        if steps > 0 and self._restless():
+            self._simulate(steps)
+
+    def _restless(self) -> bool:
+        world, c = self.true, self.true.client
+        attached = world.attachments
+        free = [world.body_of(n) for n in world.objects if n not in attached]
+        if not free:
+            return False
+        lin_eps, ang_eps = _AT_REST
+        for body in free:
+            lin, ang = pb.getBaseVelocity(body, physicsClientId=c)
+            if np.linalg.norm(lin) > lin_eps or np.linalg.norm(ang) > ang_eps:
+                return True
+        robot = world.robot_body
+        pb.performCollisionDetection(physicsClientId=c)
+        return any(pb.getContactPoints(robot, body, physicsClientId=c) for body in free)
+
+    def _simulate(self, steps: int) -> None:
+        world, c = self.true, self.true.client
+        before = world.snapshot()
+        attached = world.attachments
+        robot = world.robot_body
+        kinematic = [(robot, i) for i in self.robot_links]
+        kinematic += [(world.body_of(n), -1) for n in attached]
+        masses = [(b, i, pb.getDynamicsInfo(b, i, physicsClientId=c)[0]) for b, i in kinematic]
+        for b, i, _ in masses:
+            pb.changeDynamics(b, i, mass=0.0, physicsClientId=c)
+        try:
+            for k in range(steps):
+                pb.stepSimulation(physicsClientId=c)
+                if k % 24 == 23 and not self._restless():
+                    break
+        finally:
+            for b, i, m in masses:
+                pb.changeDynamics(b, i, mass=m, physicsClientId=c)
+        after = {entry[0]: entry for entry in world.snapshot().objects}
+        objects = tuple(e if e[0] in attached else after[e[0]] for e in before.objects)
+        world.restore(replace(before, objects=objects))
+
+    def sync(self) -> None:
+        sync_robot(self.true, self.belief)
+
+    async def animate(
+        self,
+        duration: float,
+        pose_at: Callable[[float], None],
+        stop_at: float | None = None,
+        on_fraction: tuple[float, Callable[[], None]] | None = None,
+    ) -> bool:
+        """Move along ``pose_at(s)``, s from 0 to 1, over ``duration`` simulated seconds in
+        :data:`CONTROL_PERIOD` steps; physics and belief follow each step. Returns False,
+        stopped where it was, once s would pass ``stop_at``. ``on_fraction`` = (s, fn)
+        calls ``fn`` once s reaches it. Evaporation stops the motion where it is."""
+        n = max(1, math.ceil(duration / CONTROL_PERIOD - 1e-9))
+        try:
+            for k in range(1, n + 1):
+                s = k / n
+                if stop_at is not None and s > stop_at:
+                    return False
+                if duration > 0:
+                    await self.step(duration / n)
+                pose_at(s)
+                if on_fraction is not None and s >= on_fraction[0]:
+                    on_fraction[1]()
+                    on_fraction = None
+                self.sync()
+        finally:
+            self.sync()
+        return True
+
+
+def _joint_indices(world: World) -> dict[str, int]:
+    c, robot = world.client, world.robot_body
+    out = {}
+    for i in range(pb.getNumJoints(robot, physicsClientId=c)):
+        info = pb.getJointInfo(robot, i, physicsClientId=c)
+        if info[2] != pb.JOINT_FIXED:
+            out[info[1].decode()] = i
+    return out
+
+
+# ----------------------------------------------------------------------- modules
+class RealProcessModule(ProcessModule):
+    """A process module of the real robot. Subclasses implement :meth:`run` for each
+    resolved command; an unknown command raises :class:`executive.DesignatorError`.
+    Evaporation stops the motion where it is and :meth:`on_cancel` brings the belief robot
+    to the true one."""
+
+    commands: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, body: _Body, name: str) -> None:
+        super().__init__(name)
+        self.body = body
+        self.world = body.true
+
+    async def execute(self, motion: Designator) -> Any:
+        command, args = motion.reference()
+        if command not in self.commands:
+            raise executive.DesignatorError(
+                f"process module {self.name!r} cannot execute the command {command!r} of "
+                f"{motion.short()} (it executes {', '.join(sorted(self.commands))})",
+                motion,
+            )
+        self.body.physics()
+        return await self.run(MotionCommand(command, args), motion)
+
+    @abc.abstractmethod
+    async def run(self, command: MotionCommand, motion: Designator) -> Any:
+        """Execute one resolved command on the true world, taking simulated time."""
+
+    async def on_cancel(self, motion: Designator) -> None:
+        self.body.sync()
+
+
+class RealNavigationPM(RealProcessModule):
+    """``going``: drive straight to the pose while turning, at most :data:`BASE_VELOCITY`
+    (or the motion's ``speed``, if lower) and :data:`BASE_ANGULAR_VELOCITY`. A collision on
+    the way, or a navigation fault, stops the robot at its last pose and raises
+    :class:`executive.NavigationGoalNotReached` (``location=goal``)."""
+
+    motion_types = frozenset({"going"})
+    commands = frozenset({"move-base"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "navigation")
+
+    async def run(self, command: MotionCommand, motion: Designator) -> None:
+        world = self.world
+        goal: Pose = command.arguments["pose"]
+        start = world.robot_pose()
+        if goal.frame == "base_footprint":
+            goal = start.to_transform("base_footprint") * goal
+        elif goal.frame != "map":
+            raise ValueError(f"unsupported frame {goal.frame!r}; known: map, base_footprint")
+        x0, y0, yaw0 = start.position[0], start.position[1], start.yaw
+        dx, dy = goal.position[0] - x0, goal.position[1] - y0
+        dyaw = _wrap(goal.yaw - yaw0)
+        speed = command.arguments.get("speed")
+        v = min(BASE_VELOCITY, speed) if speed is not None and speed > 0 else BASE_VELOCITY
+        duration = max(math.hypot(dx, dy) / v, abs(dyaw) / BASE_ANGULAR_VELOCITY)
+        blocked: list[BaseException] = []
+
+        def pose_at(s: float) -> None:
+            if blocked:
+                return
+            try:
+                world.drive(Pose.from_xyz_yaw(x0 + s * dx, y0 + s * dy, 0.0, yaw0 + s * dyaw))
+            except NavigationPoseUnreachable as exc:
+                blocked.append(exc)
+
+        stop = self.body.fault("navigation")
+        n = max(1, math.ceil(duration / CONTROL_PERIOD - 1e-9))
+        done = True
+        try:
+            for k in range(1, n + 1):
+                if stop is not None and k / n > stop:
+                    done = False
+                    break
+                await self.body.step(duration / n)
+                pose_at(k / n)
+                self.body.sync()
+                if blocked:
+                    break
+        finally:
+            self.body.sync()
+        if blocked:
+            raise NavigationGoalNotReached(
+                f"collision on the way to {goal!r}; stopped at {world.robot_pose()!r}",
+                location=goal,
+            ) from blocked[0]
+        if not done:
+            raise NavigationGoalNotReached(
+                f"the base stopped at {world.robot_pose()!r} on the way to {goal!r}",
+                location=goal,
+            )
+
+
+class RealTorsoPM(RealProcessModule):
+    """``moving-torso`` at :data:`TORSO_VELOCITY`; outside the joint limits raises
+    :class:`executive.TorsoGoalNotReached` before moving."""
+
+    motion_types = frozenset({"moving-torso"})
+    commands = frozenset({"move-torso"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "torso")
+
+    async def run(self, command: MotionCommand, motion: Designator) -> None:
+        world = self.world
+        start = world.torso_height
+        world.move_torso(command.arguments["joint_angle"])  # validates (raises, unchanged)
+        goal = world.torso_height
+        world.move_torso(start)
+        await self.body.animate(
+            abs(goal - start) / TORSO_VELOCITY,
+            lambda s: world.move_torso(start + s * (goal - start)),
+        )
+
+
+class RealPtuPM(RealProcessModule):
+    """``looking`` (as the projection ``ptu`` module computes the goal) at
+    :data:`HEAD_JOINT_VELOCITY`. Beyond the limits raises :class:`executive.PtuGoalNotReached`
+    before moving; a ptu fault stops the head part of the way and raises it too."""
+
+    motion_types = frozenset({"looking"})
+    commands = frozenset({"move-head"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "ptu")
+        self._goal = PtuPM(body.true)
+
+    def _set(self, values: Sequence[float]) -> None:
+        c, robot = self.world.client, self.world.robot_body
+        for i, v in zip(self.body.head.values(), values):
+            pb.resetJointState(robot, i, v, 0.0, physicsClientId=c)
+
+    async def run(self, command: MotionCommand, motion: Designator) -> None:
+        joints = list(self.body.head)
+        start = [self.world.joint_position(j) for j in joints]
+        self._goal.run(command, motion)  # raises PtuGoalNotReached, head unchanged
+        goal = [self.world.joint_position(j) for j in joints]
+        self._set(start)
+        delta = max(abs(g - s) for g, s in zip(goal, start))
+        stop = self.body.fault("ptu")
+        reached = await self.body.animate(
+            delta / HEAD_JOINT_VELOCITY,
+            lambda s: self._set([a + s * (b - a) for a, b in zip(start, goal)]),
+            stop_at=stop,
+        )
+        if not reached:
+            raise PtuGoalNotReached("the head stopped on the way", target=command.arguments)
+
+
+class RealPerceptionPM(RealProcessModule):
+    """``detecting``: after :data:`DETECTION_TIME`, the true world's visible matches
+    (:meth:`World.detect`), each missed at ``miss_rate``, the first one reported with a
+    noisy pose as ``(type T) (name N) (pose <map pose>) (transform <base_footprint -> N>)``
+    plus the input's other properties, equated to the input and announced with
+    :class:`executive.events.ObjectPerceived`. Nothing seen, or a perception fault, raises
+    :class:`executive.PerceptionObjectNotFound`."""
+
+    motion_types = frozenset({"detecting"})
+    commands = frozenset({"detect"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "perception")
+
+    async def run(self, command: MotionCommand, motion: Designator) -> Designator:
+        body = self.body
+        wanted: Designator = command.arguments["object"]
+        failed = body.fault("perception")
+        await body.step(DETECTION_TIME)
+        if failed is not None:
+            raise PerceptionObjectNotFound("perception failed to find the object", object=wanted)
+        try:
+            visible = self.world.detect(wanted)
+        except PerceptionObjectNotFound:
+            visible = []
+        seen = [o for o in visible if not body.miss_rng.random() < body.faults.miss_rate]
+        if not seen:
+            raise PerceptionObjectNotFound(
+                f"no {wanted.get('type')} seen ({len(visible)} visible, all missed)"
+                if visible
+                else f"no visible {wanted.get('type')}",
+                object=wanted,
+            )
+        found = seen[0]
+        pos_std, yaw_std = body.faults.detection_noise
+        noise = body.noise_rng.normal(0.0, 1.0, 3) * (pos_std, pos_std, yaw_std)
+        true_pose = found.map_pose
+        turn = Pose.from_xyz_yaw(0.0, 0.0, 0.0, float(noise[2])).as_rotation()
+        x, y, z = true_pose.position
+        map_pose = Pose(
+            (x + float(noise[0]), y + float(noise[1]), z),
+            (turn * true_pose.as_rotation()).as_quat(),
+        )
+        base = self.world.robot_pose().to_transform("base_footprint")
+        in_base = base.inverse() * map_pose
+        own = {"type", "name", "pose", "transform"}
+        perceived = an.object(
+            ("type", found.type),
+            ("name", found.name),
+            ("pose", map_pose),
+            ("transform", in_base.to_transform(found.name)),
+            *((k, v) for k, v in wanted.properties if k not in own),
+        )
+        original = motion.get("object")
+        equate(original if isinstance(original, Designator) else wanted, perceived)
+        emit(ObjectPerceived(perceived))
+        return perceived
+
+
+class RealGrippersPM(RealProcessModule):
+    """Gripper motions at :data:`FINGER_VELOCITY` (the projection ``grippers`` module's
+    types). ``gripping`` closes until contact; nothing between the fingers, or a
+    ``grasp_slip`` fault, raises :class:`executive.GripperClosedCompletely` with nothing
+    held; a ``drop`` fault arms a drop for the arm's next motion. An opening outside
+    [0, 0.1] raises :class:`executive.GripperGoalNotReached` before moving."""
+
+    motion_types = frozenset(
+        {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
+    )
+    commands = frozenset({"move-gripper-joint"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "grippers")
+
+    def accepts(self, motion: Designator) -> bool:
+        return motion.type in self.motion_types or (
+            motion.type in ("opening", "closing") and "gripper" in motion
+        )
+
+    async def run(self, command: MotionCommand, motion: Designator) -> None:
+        world, body = self.world, self.body
+        args = command.arguments
+        action = args["action"]
+        goal_action = args["joint_angle"] if action == "angle" else action
+        grippers = args["gripper"]
+        arms = [grippers] if isinstance(grippers, str) else list(grippers)
+        start = {arm: world.gripper_opening(arm) for arm in arms}
+        goal: dict[str, float] = {}
+        empty: list[str] = []
+        for arm in arms:  # the goal, computed by the world (raises before moving)
+            try:
+                world.gripper(goal_action, arm)
+            except GripperClosedCompletely:
+                empty.append(arm)
+            goal[arm] = world.gripper_opening(arm)
+            world.gripper(start[arm], arm)
+        delta = max(abs(goal[a] - start[a]) for a in arms)
+
+        def pose_at(s: float) -> None:
+            for arm in arms:
+                world.gripper(start[arm] + s * (goal[arm] - start[arm]), arm)
+
+        await body.animate(delta / 2.0 / FINGER_VELOCITY, pose_at)
+        if empty:
+            raise GripperClosedCompletely(action=action, arm=empty[0])
+        if action == "grip":
+            for arm in arms:
+                if body.fault("grasp_slip") is not None:
+                    raise GripperClosedCompletely(
+                        f"the object slipped out of the {arm} gripper", action=action, arm=arm
+                    )
+                drop = body.fault("drop")
+                if drop is not None:
+                    body.drops[arm] = drop
+                else:
+                    body.drops.pop(arm, None)
+
+
+class RealArmsPM(RealProcessModule):
+    """``moving-tcp`` (the true world's IK with torso resampling; an ``ik`` fault or no
+    solution raises :class:`executive.ManipulationPoseUnreachable` before moving) and
+    ``moving-arm-joints`` (bad values: :class:`executive.ManipulationGoalNotReached`),
+    at :data:`ARM_JOINT_VELOCITY` and :data:`TORSO_VELOCITY`. No collision checks: the arm
+    pushes what it meets. A drop armed by a grip makes the held object fall part of the
+    way; the motion then ends and raises :class:`executive.GripperClosedCompletely`."""
+
+    motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
+    commands = frozenset({"move-tcp", "move-joints"})
+
+    def __init__(self, body: _Body) -> None:
+        super().__init__(body, "arms")
+
+    async def run(self, command: MotionCommand, motion: Designator) -> None:
+        world, body = self.world, self.body
+        args: Mapping[str, Any] = command.arguments
+        arms = [a for a in ("left", "right") if args.get(a) is not None]
+        start = {a: world.arm_joints(a) for a in ("left", "right")}
+        torso = world.torso_height
+        if command.command == "move-tcp":
+            if body.fault("ik") is not None:
+                raise ManipulationPoseUnreachable(
+                    "no IK solution found", left=args.get("left"), right=args.get("right")
+                )
+            world.move_tcp(left=args.get("left"), right=args.get("right"))
+        else:
+            try:
+                world.move_joints(left=args.get("left"), right=args.get("right"))
+            except ValueError as exc:
+                raise ManipulationGoalNotReached(
+                    str(exc), left=args.get("left"), right=args.get("right")
+                ) from exc
+        goal = {a: world.arm_joints(a) for a in arms}
+        goal_torso = world.torso_height
+        world.move_torso(torso)
+        world.move_joints(**{a: start[a] for a in arms})
+        delta = max(
+            (abs(g - s) for a in arms for g, s in zip(goal[a], start[a])), default=0.0
+        )
+        duration = max(delta / ARM_JOINT_VELOCITY, abs(goal_torso - torso) / TORSO_VELOCITY)
+
+        def pose_at(s: float) -> None:
+            world.move_torso(torso + s * (goal_torso - torso))
+            world.move_joints(
+                **{
+                    a: [p + s * (q - p) for p, q in zip(start[a], goal[a])]
+                    for a in arms
+                }
+            )
+
+        dropped: list[str] = []
+        drop = self._armed_drop(arms)
+        trigger = None
+        if drop is not None:
+            arm, name, fraction = drop
+
+            def release() -> None:
+                world.detach(name, settle_steps=0)
+                world.gripper("close", arm)
+                dropped.append(name)
+
+            trigger = (fraction, release)
+        await body.animate(duration, pose_at, on_fraction=trigger)
+        if dropped:
+            raise GripperClosedCompletely(
+                f"{dropped[0]} slipped out of the {drop[0] if drop else ''} gripper",
+                action="hold",
+                arm=drop[0] if drop else None,
+                object=dropped[0],
+            )
+
+    def _armed_drop(self, arms: Sequence[str]) -> tuple[str, str, float] | None:
+        links = _robot_links(self.world)
+        for arm in arms:
+            fraction = self.body.drops.get(arm)
+            if fraction is None:
+                continue
+            for name, link in self.world.attachments.items():
+                if link in links and link.startswith(_PREFIX[arm] + "_"):
+                    del self.body.drops[arm]
+                    return arm, name, fraction
+        return None
+
+
+def real_process_modules(
+    true_world: World, belief_world: World, faults: FaultProfile | None = None
+) -> tuple[RealProcessModule, ...]:
+    """The six real modules (navigation, torso, ptu, perception, grippers, arms) acting on
+    ``true_world`` and keeping ``belief_world``'s robot in step. Their fault draws start
+    afresh from ``faults.seed``."""
+    body = _Body(true_world, belief_world, faults if faults is not None else FaultProfile())
+    return (
+        RealNavigationPM(body),
+        RealTorsoPM(body),
+        RealPtuPM(body),
+        RealPerceptionPM(body),
+        RealGrippersPM(body),
+        RealArmsPM(body),
+    )
+
+
+# ----------------------------------------------------------------------- world model
+class RealWorldModel:
+    """:class:`executive.ProjectionWorld` of the real robot: queries and probes are the
+    belief world's (:class:`ProjectedWorldModel`; plans reason on belief, probes never
+    touch the true world), and events change both worlds:
+
+    - ``ObjectAttached``: the belief attaches (raising for unknown objects as in
+      projection); the true world attaches only if a gripper link of that arm really
+      touches the object;
+    - ``ObjectDetached``: both release what they hold (the true object then falls and
+      settles under physics);
+    - ``ContainerOpened``/``ContainerClosed``: the belief moves the joint (raising beyond
+      the limits); the true joint follows, clamped to its limits;
+    - ``ObjectPerceived``: the belief object is put at the perceived pose, spawned if the
+      belief did not know it;
+    - ``RobotStateChanged``: the belief robot is set to the true one.
+    """
+
+    def __init__(self, true_world: World, belief_world: World) -> None:
+        for w, what in ((true_world, "true_world"), (belief_world, "belief_world")):
+            if not isinstance(w, World):
+                raise TypeError(f"RealWorldModel needs a projection.World as {what}, got {w!r}")
+        if true_world is belief_world:
+            raise ValueError("the true world and the belief world must be different worlds")
+        self.true_world = true_world
+        self.belief_world = belief_world
+        self.belief = ProjectedWorldModel(belief_world)
+        self._links = _robot_links(true_world)
+
+    # -- queries and probes: the belief's -------------------------------------------
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        return self.belief.object_pose(name, frame)
+
+    def robot_pose(self) -> Pose:
+        return self.belief.robot_pose()
+
+    def object_type(self, name: str) -> str:
+        return self.belief.object_type(name)
+
+    def object_in_hand(self, arm: str) -> str | None:
+        return self.belief.object_in_hand(arm)
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        return self.belief.link_pose(link, frame)
+
+    def probe_base_pose(self, pose: Pose) -> ProbeResult:
+        return self.belief.probe_base_pose(pose)
+
+    def probe_arm_trajectory(
+        self,
+        arm: str,
+        waypoints: Sequence[Pose],
+        *,
+        robot_pose: Pose | None = None,
+        gripper_opening: float | None = None,
+        allowed_contacts: Sequence[str] = (),
+        check_collisions: Sequence[bool] | bool = True,
+    ) -> ProbeResult:
+        return self.belief.probe_arm_trajectory(
+            arm,
+            waypoints,
+            robot_pose=robot_pose,
+            gripper_opening=gripper_opening,
+            allowed_contacts=allowed_contacts,
+            check_collisions=check_collisions,
+        )
+
+    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
+        return self.belief.probe_placing_stability(object_type, pose)
+
+    # -- events -----------------------------------------------------------------------
+    def handle_event(self, event: Event) -> None:
+        """Apply an event to both worlds (see the class docstring). Not an Event:
+        TypeError."""
+        if not isinstance(event, Event):
+            raise TypeError(f"handle_event() needs an executive.events.Event, got {event!r}")
+        true = self.true_world
+        if isinstance(event, ObjectPerceived):
+            self._perceived(event.designator)
+        elif isinstance(event, RobotStateChanged):
+            sync_robot(true, self.belief_world)
+        elif isinstance(event, ObjectAttached):
+            self.belief.handle_event(event)
+            name = object_name(event.object)
+            if name in true.objects and self.holds(event.arm, name):
+                true.attach(name, event.link or f"{_PREFIX[event.arm]}_wrist_roll_link")
+        elif isinstance(event, ObjectDetached):
+            self.belief.handle_event(event)
+            name = object_name(event.object)
+            if name in true.objects and true.attachments.get(name) in self._links:
+                true.detach(name, settle_steps=DETACH_SETTLE_STEPS)
+        elif isinstance(event, (ContainerOpened, ContainerClosed)):
+            self.belief.handle_event(event)
+            joint = _container_joint(true, ProjectedWorldModel._container(event.container))
+            sign = 1.0 if isinstance(event, ContainerOpened) else -1.0
+            true.set_container(joint, true.joint_position(joint) + sign * event.distance)
+        else:
+            self.belief.handle_event(event)
+
+    def holds(self, arm: str, name: str) -> bool:
+        """Whether a gripper link of ``arm`` touches object ``name`` in the true world."""
+        world, c = self.true_world, self.true_world.client
+        body = world.body_of(name)
+        return any(
+            pb.getClosestPoints(world.robot_body, body, 1e-3, li, -1, physicsClientId=c)
+            for n, li in self._links.items()
+            if n.startswith(f"{_PREFIX[arm]}_gripper")
+        )
+
+    def _perceived(self, designator: Any) -> None:
+        get = getattr(designator, "get", None)
+        if get is None:
+            return
+        name, otype, pose = get("name"), get("type"), get("pose")
+        if not isinstance(name, str) or not isinstance(pose, Pose):
+            return
+        belief = self.belief_world
+        if name in belief.objects:
+            if belief.attachments.get(name) not in self._links:  # not in the robot's hand
+                belief.set_object_pose(name, pose)
+        elif isinstance(otype, str):
+            belief.spawn_object(name, otype, pose)
+
+    def __repr__(self) -> str:
+        return f"<RealWorldModel true={self.true_world!r} belief={self.belief_world!r}>"
+
+
+def _container_joint(world: World, name: str) -> str:
+    for joint in (name, f"{name}_joint"):
+        try:
+            world.joint_position(joint)
+        except LookupError:
+            continue
+        return joint
+    raise LookupError(f"no container {name!r} in the true world")
+
+
+# ----------------------------------------------------------------------- environment
+_LOCATION_RULES: Any = object()  # sentinel: "use the belief world's location rules"
+
+
+@asynccontextmanager
+async def with_real_robot(
+    true_world: World,
+    belief_world: World,
+    faults: FaultProfile | None = None,
+    speed: float | None = None,
+    *,
+    rules: executive.RuleSet | None = _LOCATION_RULES,
+    name: str = "real",
+) -> AsyncIterator[executive.Environment]:
+    """Run a block with the simulated real robot (like ``with_projected_robot``)::
+
+        async def main() -> None:
+            async with projection.with_real_robot(true, belief, FaultProfile.uniform(0.05)):
+                await executive.perform(a.motion(type="going", pose=pose))
+
+        cpl.run(main, clock=projection.real_robot_clock(speed))
+
+    The six real modules act on ``true_world``; the world model is a
+    :class:`RealWorldModel`; ``rules`` default to
+    ``projection._locations.location_rules(belief_world)`` (``None``:
+    :data:`executive.static_rules`). ``faults`` default to :class:`FaultProfile()` (noise
+    only). The clock belongs to the loop, so the caller picks it; ``speed`` (None: any)
+    only checks that the running loop's clock has that speed (ValueError otherwise; see
+    :func:`real_robot_clock`). On entry the belief robot is set to the true one. Leaving
+    the block (also on failure or evaporation) stops and evaporates every running motion
+    and leaves every module offline. Not Worlds, or the same world twice: TypeError /
+    ValueError; a closed World: RuntimeError."""
+    model = RealWorldModel(true_world, belief_world)
+    true_world.client  # noqa: B018 - raise RuntimeError for a closed world
+    belief_world.client  # noqa: B018
+    if speed is not None:
+        _check_clock(speed)
+    if rules is _LOCATION_RULES:
+        from projection._locations import location_rules
+
+        rules = location_rules(belief_world)
+    sync_robot(true_world, belief_world)
+    env = executive.Environment(
+        name,
+        process_modules=real_process_modules(true_world, belief_world, faults),
+        world=model,
+        rules=rules,
+    )
+    async with executive.environment(env):
+        yield env
+
+
+# ----------------------------------------------------------------------- world pairs
+def _settle(world: World, steps: int) -> None:
+    """Step the world's physics ``steps`` times with the robot and attached objects held."""
+    body = _Body(world, world, FaultProfile.none())
+    body._simulate(steps)
+
+
+def make_world_pair(
+    seed: int | None = 0,
+    *,
+    objects: Mapping[str, SceneObject] | None = None,
+    belief_objects: Literal["none", "exact", "noisy"] = "none",
+    noise: tuple[float, float] = (0.02, 0.1),
+) -> tuple[World, World]:
+    """Two worlds from the same assets: ``(true_world, belief_world)``, robot and kitchen
+    identical. ``objects`` (default :data:`DEMO_OBJECTS`; name -> (type, pose[, link to
+    attach to])) are spawned in the true world (types that rest on a surface get their z
+    from the counter below), which then settles for 100 physics steps. The belief knows
+    them not at all (``"none"``: perception teaches it), exactly (``"exact"``), or with
+    Gaussian ``noise`` = (x/y std m, yaw std rad) drawn from ``seed`` (``"noisy"``).
+    The caller closes both worlds. Bad ``belief_objects``: ValueError."""
+    if belief_objects not in ("none", "exact", "noisy"):
+        raise ValueError(
+            f"belief_objects must be 'none', 'exact' or 'noisy', got {belief_objects!r}"
+        )
+    true_world, belief_world = World(seed=seed), World(seed=seed)
+    try:
+        spec = DEMO_OBJECTS if objects is None else objects
+        for name, entry in spec.items():
+            otype, pose = entry[0], entry[1]
+            if objects is None and len(entry) == 2:  # the demo: rest on the sink counter
+                top = true_world.link_aabb("sink_area_surface")[1][2]
+                z = top + object_type(otype).size[2] / 2.0 + 0.001
+                pose = Pose((pose.position[0], pose.position[1], z), pose.orientation)
+            true_world.spawn_object(name, otype, pose)
+            if len(entry) == 3:
+                true_world.attach(name, entry[2])  # type: ignore[misc]
+        _settle(true_world, 100)
+        rng = np.random.default_rng(seed)
+        if belief_objects != "none":
+            for name, otype in true_world.objects.items():
+                pose = true_world.object_pose(name)
+                if belief_objects == "noisy":
+                    d = rng.normal(0.0, 1.0, 3) * (noise[0], noise[0], noise[1])
+                    x, y, z = pose.position
+                    turn = Pose.from_xyz_yaw(0, 0, 0, float(d[2])).as_rotation()
+                    pose = Pose(
+                        (x + float(d[0]), y + float(d[1]), z),
+                        (turn * pose.as_rotation()).as_quat(),
+                    )
+                belief_world.spawn_object(name, otype, pose)
+                link = true_world.attachments.get(name)
+                if link is not None:
+                    belief_world.attach(name, link)
+    except BaseException:
+        true_world.close()
+        belief_world.close()
+        raise
+    return true_world, belief_world

@@ -1,0 +1,256 @@
+"""The belief state of a projected robot: :class:`ProjectedWorldModel` implements
+:class:`executive.ProjectionWorld` on a :class:`~projection._world.World`.
+
+In projection the belief *is* the world: queries read the PyBullet world, events change it
+(CRAM's ``cram_bullet_reasoning_belief_state`` event handlers), and the probes imagine a
+motion on it and put everything back (``World.snapshot``/``restore``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import pybullet as pb
+
+from cpl import PlanFailure as _PlanFailure
+from executive import Pose, ProbeResult
+from executive.events import (
+    ContainerClosed,
+    ContainerOpened,
+    Event,
+    ObjectAttached,
+    ObjectDetached,
+    object_name,
+)
+from executive.failures import (
+    HighLevelFailure,
+    ManipulationGoalInCollision,
+    PerceptionObjectNotInWorld,
+)
+from projection._world import Contact, World
+
+__all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
+
+#: Physics steps an object settles for after it was released (CRAM: 10).
+DETACH_SETTLE_STEPS = 10
+#: How far (m) a placed object may move before the pose counts as unstable (CRAM: 0.2).
+STABILITY_THRESHOLD = 0.2
+_PREFIX = {"left": "l", "right": "r"}
+
+
+def _arm(arm: Any) -> str:
+    if arm not in _PREFIX:
+        raise ValueError(f"unknown arm {arm!r}; known arms: left, right")
+    return str(arm)
+
+
+def _pose(pose: Any, what: str) -> Pose:
+    if not isinstance(pose, Pose):
+        raise TypeError(f"{what} must be an executive.Pose, got {pose!r}")
+    return pose
+
+
+class ProjectedWorldModel:
+    """:class:`executive.ProjectionWorld` on a PyBullet :class:`World`.
+
+    Unknown objects raise :class:`executive.PerceptionObjectNotInWorld`; unknown links and
+    containers :class:`LookupError`; a wrong arm :class:`ValueError`. Events:
+
+    - ``ObjectAttached``: the object is attached rigidly to ``event.link`` or, by default,
+      to the arm's ``?_wrist_roll_link`` (CRAM's end-effector link), replacing any
+      attachment to the kitchen (the spoon in the drawer);
+    - ``ObjectDetached``: released, then settles for :data:`DETACH_SETTLE_STEPS` steps; an
+      object the robot does not hold is left alone;
+    - ``ContainerOpened``/``ContainerClosed``: the container's joint (its ``urdf-name``,
+      ``name``, or the name given) moves by ``distance``; beyond its limits raises
+      :class:`executive.EnvironmentManipulationGoalNotReached`, world unchanged;
+    - ``RobotStateChanged``, ``ObjectPerceived`` and others: nothing (the belief is the
+      world).
+    """
+
+    def __init__(self, world: World) -> None:
+        if not isinstance(world, World):
+            raise TypeError(f"ProjectedWorldModel needs a projection.World, got {world!r}")
+        self.world = world
+        c, robot = world.client, world.robot_body
+        self._robot_links = frozenset(
+            pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
+            for i in range(pb.getNumJoints(robot, physicsClientId=c))
+        )
+
+    # ------------------------------------------------------------------ queries
+    def _known(self, name: Any) -> str:
+        if not isinstance(name, str) or name not in self.world.objects:
+            known = ", ".join(self.world.objects) or "none"
+            raise PerceptionObjectNotInWorld(
+                f"no object {name!r} in the world (known: {known})", object=name
+            )
+        return name
+
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        """The object's pose in ``map`` or ``base_footprint`` (another frame: ValueError)."""
+        return self.world.object_pose(self._known(name), frame)
+
+    def robot_pose(self) -> Pose:
+        """``base_footprint`` in ``map``."""
+        return self.world.robot_pose()
+
+    def object_type(self, name: str) -> str:
+        """The object's type."""
+        return self.world.objects[self._known(name)]
+
+    def object_in_hand(self, arm: str) -> str | None:
+        """The first object attached to a link of ``arm`` (``l_*``/``r_*``), or None."""
+        prefix = _PREFIX[_arm(arm)] + "_"
+        for name, link in self.world.attachments.items():
+            if link in self._robot_links and link.startswith(prefix):
+                return name
+        return None
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        """A robot or kitchen link's pose; unknown links raise LookupError."""
+        return self.world.link_pose(link, frame)
+
+    # ------------------------------------------------------------------ events
+    def handle_event(self, event: Event) -> None:
+        """Apply an event to the world (see the class docstring). Not an Event:
+        TypeError."""
+        if not isinstance(event, Event):
+            raise TypeError(f"handle_event() needs an executive.events.Event, got {event!r}")
+        world = self.world
+        if isinstance(event, ObjectAttached):
+            name = self._known(object_name(event.object))
+            link = event.link or f"{_PREFIX[_arm(event.arm)]}_wrist_roll_link"
+            world.attach(name, link)
+        elif isinstance(event, ObjectDetached):
+            name = self._known(object_name(event.object))
+            _arm(event.arm)
+            if world.attachments.get(name) in self._robot_links:
+                world.detach(name, settle_steps=DETACH_SETTLE_STEPS)
+        elif isinstance(event, ContainerOpened):
+            world.open_container(self._container(event.container), event.distance)
+        elif isinstance(event, ContainerClosed):
+            world.close_container(self._container(event.container), event.distance)
+
+    @staticmethod
+    def _container(container: Any) -> str:
+        if isinstance(container, str):
+            return container
+        get = getattr(container, "get", None)
+        if get is not None:
+            current = getattr(container, "current", None)
+            desig = current() if current is not None else container
+            name = desig.get("urdf-name")
+            if isinstance(name, str):
+                return name
+        return object_name(container)
+
+    # ------------------------------------------------------------------ probes
+    def probe_base_pose(self, pose: Pose) -> ProbeResult:
+        """Would the robot, with what it carries, stand collision-free at ``pose``? The
+        failure is :class:`executive.NavigationPoseUnreachable`. World restored."""
+        _pose(pose, "pose")
+        world = self.world
+        snap = world.snapshot()
+        try:
+            world.drive(pose)
+        except _PlanFailure as failure:
+            return ProbeResult(False, failure)
+        finally:
+            world.restore(snap)
+        return ProbeResult(True)
+
+    def probe_arm_trajectory(
+        self,
+        arm: str,
+        waypoints: Sequence[Pose],
+        *,
+        robot_pose: Pose | None = None,
+        gripper_opening: float | None = None,
+        allowed_contacts: Sequence[str] = (),
+        check_collisions: Sequence[bool] | bool = True,
+    ) -> ProbeResult:
+        """Drive to ``robot_pose`` (if given; in collision -> ``NavigationPoseUnreachable``,
+        index None), set the gripper opening (if given; out of range ->
+        ``GripperGoalNotReached``, index None), then move ``arm``'s tool frame through
+        ``waypoints`` with :meth:`World.move_tcp`. Waypoint ``i`` fails with
+        ``ManipulationPoseUnreachable`` (no IK) or, where collisions are checked, with
+        :class:`executive.ManipulationGoalInCollision` (``contacts=[...]``) when the robot
+        or what it carries touches anything whose object, body or link name is not in
+        ``allowed_contacts``. The world is restored. Bad arguments raise
+        TypeError/ValueError."""
+        arm = _arm(arm)
+        wps = [_pose(p, f"waypoint {i}") for i, p in enumerate(waypoints)]
+        if robot_pose is not None:
+            _pose(robot_pose, "robot_pose")
+        if isinstance(check_collisions, bool):
+            checks = [check_collisions] * len(wps)
+        else:
+            checks = [bool(c) for c in check_collisions]
+            if len(checks) != len(wps):
+                raise ValueError(
+                    f"check_collisions has {len(checks)} entries for {len(wps)} waypoints"
+                )
+        if isinstance(allowed_contacts, str):
+            raise TypeError("allowed_contacts is a sequence of names, not one string")
+        allowed = frozenset(allowed_contacts)
+        world = self.world
+        snap = world.snapshot()
+        try:
+            try:
+                if robot_pose is not None:
+                    world.drive(robot_pose)
+                if gripper_opening is not None:
+                    world.gripper(gripper_opening, arm)
+            except _PlanFailure as failure:
+                return ProbeResult(False, failure)
+            for i, (wp, check) in enumerate(zip(wps, checks)):
+                try:
+                    world.move_tcp(**{arm: wp})
+                except _PlanFailure as failure:
+                    return ProbeResult(False, failure, i)
+                if check:
+                    contacts = [c for c in world.robot_collisions() if not _allowed(c, allowed)]
+                    if contacts:
+                        return ProbeResult(False, _in_collision(arm, i, contacts), i)
+            return ProbeResult(True)
+        finally:
+            world.restore(snap)
+
+    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
+        """Would an object of ``object_type`` released at ``pose`` stay within
+        :data:`STABILITY_THRESHOLD` of it (up to 600 steps, in a side world holding the
+        kitchen only)? The failure is a :class:`executive.HighLevelFailure` "Pose
+        unstable". The main world is not touched; unknown type: LookupError."""
+        _pose(pose, "pose")
+        if self.world.placing_pose_stable(object_type, pose, threshold=STABILITY_THRESHOLD):
+            return ProbeResult(True)
+        return ProbeResult(
+            False,
+            HighLevelFailure(
+                f"Pose unstable: a {object_type} at {pose!r} moves more than "
+                f"{STABILITY_THRESHOLD} m",
+                object_type=object_type,
+                pose=pose,
+            ),
+        )
+
+    def __repr__(self) -> str:
+        return f"<ProjectedWorldModel {self.world!r}>"
+
+
+def _allowed(contact: Contact, allowed: frozenset[str]) -> bool:
+    names = {contact.body_a, contact.link_a, contact.body_b, contact.link_b} - {"object"}
+    return not names.isdisjoint(allowed)
+
+
+def _in_collision(arm: str, index: int, contacts: list[Contact]) -> ManipulationGoalInCollision:
+    first = contacts[0]
+    return ManipulationGoalInCollision(
+        f"{arm} arm at waypoint {index}: {first.body_a}/{first.link_a} touches "
+        f"{first.body_b}/{first.link_b} ({len(contacts)} contact(s))",
+        arm=arm,
+        index=index,
+        contacts=tuple(contacts),
+    )

@@ -1,0 +1,125 @@
+"""A fake robot for plan tests: an InMemoryWorld with probes, scriptable process modules
+that update it, and deterministic location rules whose solutions are visible sequences."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import pytest
+
+import cpl
+import executive
+import plans  # noqa: F401 - registers the action rules
+from cpl.testing import MockClock
+from executive import Pose, RuleSet, static_rules
+from executive.testing import FakeProcessModule, InMemoryWorld
+
+HANDLE = "sink_area_left_upper_drawer_handle"
+DRAWER = executive.an.object(
+    type="drawer", urdf_name="sink_area_left_upper_drawer_main", part_of="kitchen"
+)
+
+
+def base_poses(target: Pose, n: int = 60) -> Iterator[Pose]:
+    """Deterministic robot poses 0.5 m, 0.6 m, ... behind ``target`` (along -x)."""
+    for k in range(n):
+        yield Pose((target.position[0] - 0.5 - 0.1 * k, target.position[1], 0.0))
+
+
+def location_generator(d: executive.Designator) -> Iterator[Pose] | None:
+    """reachable-for / visible-for -> :func:`base_poses` of the target; ``(spots n)`` ->
+    n search spots 0.2 m apart along y."""
+    if "reachable-for" in d or "visible-for" in d:
+        inner = d.get("location")
+        return base_poses(inner.reference())
+    if "in" in d:
+        return iter([Pose((1.3, 0.9, 0.75))])
+    if "spots" in d:
+        return (Pose((1.0, 0.2 * k, 0.8)) for k in range(d["spots"]))
+    return None
+
+
+@dataclass
+class Robot:
+    world: InMemoryWorld
+    pms: dict[str, FakeProcessModule] = field(default_factory=dict)
+    rules: RuleSet = field(default_factory=lambda: static_rules.child("test"))
+
+    def calls(self, name: str, motion_type: str | None = None) -> list[Any]:
+        return [m for m in self.pms[name].calls if motion_type is None or m.type == motion_type]
+
+    def run(self, fn: Any, *args: Any) -> Any:
+        async def main() -> Any:
+            env = executive.Environment(
+                "test", process_modules=self.pms.values(), world=self.world, rules=self.rules
+            )
+            async with executive.environment(env):
+                return await fn(*args)
+
+        return cpl.run(main, clock=MockClock())
+
+
+def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.Designator:
+    wanted = motion.reference().arguments["object"]
+    for name, obj in world.objects.items():
+        if obj.type == wanted.type and obj.attached_to is None:
+            return wanted.copy(
+                name=name,
+                pose=world.object_pose(name),
+                transform=world.object_pose(name, "base_footprint").to_transform(name),
+            )
+    raise executive.PerceptionObjectNotFound(object=wanted)
+
+
+def make_robot(world: InMemoryWorld, **fail_on: dict[int, Any]) -> Robot:
+    """Process modules ``navigation``, ``ptu``, ``perception``, ``grippers``, ``arms``,
+    ``torso`` (``fail_on={name: {n: failure}}``) acting on ``world``."""
+
+    def drive(m: executive.Designator) -> None:
+        world.set_robot_pose(m.reference().arguments["pose"])
+
+    def move_tcp(m: executive.Designator) -> None:
+        command, args = m.reference()
+        if command != "move-tcp":
+            return
+        for arm, prefix in (("left", "l"), ("right", "r")):
+            if args[arm] is not None:
+                for link in ("gripper_tool_frame", "wrist_roll_link"):  # one frame, here
+                    world.set_link_pose(f"{prefix}_{link}", args[arm])
+
+    robot = Robot(world)
+    specs = {
+        "navigation": ("going", drive),
+        "ptu": ("looking", None),
+        "perception": ("detecting", lambda m: _perceive(world, m)),
+        "grippers": (
+            {"gripping", "opening-gripper", "closing-gripper", "moving-gripper-joint"},
+            None,
+        ),
+        "arms": ({"moving-tcp", "moving-arm-joints"}, move_tcp),
+        "torso": ("moving-torso", None),
+    }
+    for name, (accepts, result) in specs.items():
+        robot.pms[name] = FakeProcessModule(
+            name, accepts=accepts, fail_on=fail_on.get(name), result=result
+        )
+    robot.rules.register_location_generator(location_generator, 15)
+    return robot
+
+
+@pytest.fixture
+def cup_world() -> InMemoryWorld:
+    return InMemoryWorld(
+        objects={"cup-1": Pose((1.3, 0.6, 0.9))},
+        types={"cup-1": "cup"},
+        links={
+            HANDLE: Pose((1.1, 1.0, 0.78)),
+            **{
+                f"{p}_{link}": Pose((0.3, y, 1.0), frame="base_footprint")
+                for p, y in (("l", 0.2), ("r", -0.2))
+                for link in ("gripper_tool_frame", "wrist_roll_link")
+            },
+        },
+    )

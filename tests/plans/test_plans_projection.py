@@ -1,0 +1,91 @@
+"""End to end in projection (real PyBullet): the pick-and-place walkthrough, one bowl
+transport, and the table-setting demo."""
+
+from __future__ import annotations
+
+import pytest
+
+import plans
+from executive import Pose, a, an, knowledge, perform
+
+projection = pytest.importorskip("projection")
+
+ISLAND = "kitchen_island_surface"
+
+
+def on_island(world, name: str) -> bool:
+    (lx, ly, _), (hx, hy, hz) = world.link_aabb(ISLAND)
+    x, y, z = world.object_pose(name).position
+    return lx < x < hx and ly < y < hy and hz - 0.01 < z < hz + 0.3
+
+
+def in_hand(world):
+    wrist = world.link_pose("l_wrist_roll_link").to_transform()
+    return (wrist.inverse() * world.object_pose("cup-1").to_transform()).matrix()
+
+
+def run_projected(mrun, world, fn, *args):
+    async def main():
+        async with projection.with_projected_robot(world):
+            return await fn(*args)
+
+    return mrun(main)
+
+
+def test_pick_and_place_walkthrough(mrun):
+    world = projection.World(seed=3)
+    world.spawn_object("cup-1", "cup", Pose((1.3, 0.6, 0.9)))
+
+    async def walkthrough():
+        spot = a.location(pose=Pose((1.3, 0.6, 0.9)))
+        await perform(an.action(type="navigating", location=Pose((0.75, 0.6, 0.0))))
+        await perform(an.action(type="looking", target=spot))
+        cup = await perform(an.action(type="detecting", object=an.object(type="cup")))
+        picking = plans.check_picking_up_collisions(
+            an.action(type="picking-up", object=cup, arm="left")
+        )
+        assert picking.reference().arguments["grasp"] in knowledge.grasps("cup")
+        await perform(picking)
+        before = in_hand(world)
+        await perform(an.action(type="navigating", location=Pose((0.55, 0.6, 0.0))))
+        assert world.robot_pose().isclose(Pose((0.55, 0.6, 0.0)), 1e-6, 1e-6)
+        assert in_hand(world) == pytest.approx(before, abs=1e-3)  # the cup followed the hand
+        target = Pose((1.25, 0.4, 0.9))
+        await perform(
+            plans.check_placing_collisions(
+                an.action(type="placing", arm="left", target=a.location(pose=target))
+            )
+        )
+
+    run_projected(mrun, world, walkthrough)
+    assert world.attachments == {}
+    assert world.object_pose("cup-1").distance_to(Pose((1.25, 0.4, 0.9))) < 0.05
+
+
+def test_one_bowl_transport(mrun):
+    world = projection.World(seed=1)
+    outcome = run_projected(mrun, world, plans.table_setting, world, ("bowl",), True, 1)
+    assert outcome["bowl"].success and outcome["bowl"].distance > 0
+    assert on_island(world, "bowl-1") and world.attachments == {}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_table_setting(mrun, seed):
+    world = projection.World(seed=seed)
+    outcomes = run_projected(
+        mrun, world, plans.table_setting, world, plans.demo.OBJECTS, True, seed
+    )
+    assert list(outcomes) == list(plans.demo.OBJECTS)
+    for object_type, outcome in outcomes.items():
+        if outcome.success:
+            assert on_island(world, outcome.name), object_type
+    assert sum(o.success for o in outcomes.values()) >= 3
+    assert not [n for n, link in world.attachments.items() if not link.startswith("sink_area")]
+    assert world.joint_position("sink_area_left_upper_drawer_main_joint") == pytest.approx(
+        0, abs=1e-6
+    )
+    for arm in knowledge.ARMS:
+        assert world.arm_joints(arm) == pytest.approx(
+            knowledge.arm_configuration("park", arm), abs=1e-3
+        )
