@@ -20,6 +20,7 @@ from ._designator import (
 )
 from ._environment import (
     Environment,
+    Imagination,
     ProbeResult,
     ProjectionWorld,
     WorldModel,
@@ -72,6 +73,7 @@ __all__ = [
     "SolutionCursor",
     "Transform",
     "Validation",
+    "Imagination",
     "ProbeResult",
     "ProjectionWorld",
     "WorldModel",

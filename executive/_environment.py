@@ -15,7 +15,7 @@ knows the static rules and nothing else.
 from __future__ import annotations
 
 from collections.abc import AsyncIterator, Callable, Iterable, Sequence
-from contextlib import asynccontextmanager
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
@@ -122,6 +122,26 @@ class ProjectionWorld(WorldModel, Protocol):
         ...
 
 
+class Imagination(Protocol):
+    """How a robot that acts in the real world imagines (CRAM's projection reasoning): a
+    cheap snapshot / restore of its belief world, and a projection environment over that
+    belief world. The real robot's environment carries one; projection environments carry
+    none (``with_projected_task_tree`` is a pass-through there)."""
+
+    def snapshot(self) -> Any:
+        """Save the belief world."""
+        ...
+
+    def restore(self, snapshot: Any) -> None:
+        """Put the belief world back exactly as saved."""
+        ...
+
+    def projection(self) -> AbstractAsyncContextManager[Any]:
+        """Enter a projection environment (projected process modules, rules and world
+        model) over the belief world."""
+        ...
+
+
 class _Subscribers:
     """Event callbacks by event type, shared by an environment and those derived from it."""
 
@@ -145,9 +165,11 @@ class Environment:
         "_owns_rules",
         "_subscribers",
         "_world",
+        "imagination",
         "name",
         "parent",
         "process_modules",
+        "projecting",
         "rules",
     )
 
@@ -158,8 +180,14 @@ class Environment:
         process_modules: Iterable[ProcessModule] = (),
         world: WorldModel | None = None,
         rules: RuleSet | None = None,
+        projecting: bool = False,
+        imagination: Imagination | None = None,
     ) -> None:
         self.name = name
+        #: True in a projection environment (the robot is imagining, not acting).
+        self.projecting = projecting
+        #: How to imagine from here (set by a real robot's environment), else None.
+        self.imagination = imagination
         self.process_modules: tuple[ProcessModule, ...] = _check_modules(process_modules)
         self._world = world
         self.rules: RuleSet = rules if rules is not None else static_rules
@@ -201,6 +229,8 @@ class Environment:
             process_modules=(*self.process_modules, *_check_modules(process_modules)),
             world=world if world is not None else self._world,
             rules=rules if rules is not None else self.rules,
+            projecting=self.projecting,
+            imagination=self.imagination,
         )
         env._owns_rules = False if rules is None else env._owns_rules
         env._subscribers = self._subscribers
@@ -330,14 +360,23 @@ async def environment(
     process_modules: Iterable[ProcessModule] = (),
     world: WorldModel | None = None,
     rules: RuleSet | None = None,
+    projecting: bool = False,
+    imagination: Imagination | None = None,
 ) -> AsyncIterator[Environment]:
     """Run a block in ``env`` (or a new independent :class:`Environment` built from the
     keywords). Its process modules are activated for the block; on leaving (also on failure
     or evaporation) every goal submitted from within the block is evaporated and awaited, so
     no goal outlives it."""
     if env is None:
-        env = Environment(name, process_modules=process_modules, world=world, rules=rules)
-    elif process_modules or world is not None or rules is not None:
+        env = Environment(
+            name,
+            process_modules=process_modules,
+            world=world,
+            rules=rules,
+            projecting=projecting,
+            imagination=imagination,
+        )
+    elif process_modules or world is not None or rules is not None or imagination is not None:
         raise TypeError("pass either an Environment or keywords to build one, not both")
     async with _activated(env, env.process_modules):
         yield env

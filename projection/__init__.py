@@ -64,7 +64,13 @@ _REAL_ROBOT = (
     "with_real_robot",
 )
 _EXPORTS = MappingProxyType({**_EXPORTS, **dict.fromkeys(_REAL_ROBOT, "projection._real_robot")})
-__all__ += list(_REAL_ROBOT)
+__all__ += [
+    "FaultProfile",
+    "RealWorldModel",
+    "make_world_pair",
+    "real_robot_clock",
+    "with_real_robot",
+]
 
 if TYPE_CHECKING:
     from projection._real_robot import (

@@ -140,7 +140,14 @@ class FaultProfile:
     seed: int | None = 0
 
     #: The failure kinds (the fields that :meth:`uniform` sets).
-    KINDS: ClassVar[tuple[str, ...]] = ("navigation", "ptu", "perception", "grasp_slip", "drop", "ik")
+    KINDS: ClassVar[tuple[str, ...]] = (
+        "navigation",
+        "ptu",
+        "perception",
+        "grasp_slip",
+        "drop",
+        "ik",
+    )
 
     def __post_init__(self) -> None:
         for key in (*self.KINDS, "miss_rate"):
@@ -158,14 +165,17 @@ class FaultProfile:
                 f"got {self.detection_noise!r}"
             )
         object.__setattr__(self, "detection_noise", (float(noise[0]), float(noise[1])))
-        if self.seed is not None and (isinstance(self.seed, bool) or not isinstance(self.seed, int)):
+        if self.seed is not None and (
+            isinstance(self.seed, bool) or not isinstance(self.seed, int)
+        ):
             raise TypeError(f"FaultProfile.seed must be an int or None, got {self.seed!r}")
 
     @classmethod
     def uniform(cls, rate: float, **others: Any) -> FaultProfile:
         """Every failure kind (:attr:`KINDS`) at ``rate``; ``others`` set the remaining
         fields (``detection_noise``, ``miss_rate``, ``seed``)."""
-        return cls(**{kind: rate for kind in cls.KINDS}, **others)
+        rates: dict[str, Any] = dict.fromkeys(cls.KINDS, rate)
+        return cls(**rates, **others)
 
     @classmethod
     def none(cls, seed: int | None = 0) -> FaultProfile:
@@ -281,9 +291,7 @@ class _Body:
         self.belief = belief_world
         self.faults = faults
         streams = np.random.SeedSequence(faults.seed).spawn(len(FaultProfile.KINDS) + 2)
-        self.rngs = {
-            kind: np.random.default_rng(s) for kind, s in zip(FaultProfile.KINDS, streams)
-        }
+        self.rngs = {kind: np.random.default_rng(s) for kind, s in zip(FaultProfile.KINDS, streams)}
         self.noise_rng = np.random.default_rng(streams[-2])
         self.miss_rng = np.random.default_rng(streams[-1])
         self.physics_time: float | None = None
@@ -295,9 +303,7 @@ class _Body:
             arm: [i for n, i in links.items() if n.startswith(f"{p}_gripper")]
             for arm, p in _PREFIX.items()
         }
-        self.head = {
-            j: i for j, i in _joint_indices(true_world).items() if j.startswith("head_")
-        }
+        self.head = {j: i for j, i in _joint_indices(true_world).items() if j.startswith("head_")}
 
     # -- faults -------------------------------------------------------------------
     def fault(self, kind: str) -> float | None:
@@ -712,18 +718,13 @@ class RealArmsPM(RealProcessModule):
         goal_torso = world.torso_height
         world.move_torso(torso)
         world.move_joints(**{a: start[a] for a in arms})
-        delta = max(
-            (abs(g - s) for a in arms for g, s in zip(goal[a], start[a])), default=0.0
-        )
+        delta = max((abs(g - s) for a in arms for g, s in zip(goal[a], start[a])), default=0.0)
         duration = max(delta / ARM_JOINT_VELOCITY, abs(goal_torso - torso) / TORSO_VELOCITY)
 
         def pose_at(s: float) -> None:
             world.move_torso(torso + s * (goal_torso - torso))
             world.move_joints(
-                **{
-                    a: [p + s * (q - p) for p, q in zip(start[a], goal[a])]
-                    for a in arms
-                }
+                **{a: [p + s * (q - p) for p, q in zip(start[a], goal[a])] for a in arms}
             )
 
         dropped: list[str] = []
@@ -1002,7 +1003,7 @@ def make_world_pair(
                 pose = Pose((pose.position[0], pose.position[1], z), pose.orientation)
             true_world.spawn_object(name, otype, pose)
             if len(entry) == 3:
-                true_world.attach(name, entry[2])  # type: ignore[misc]
+                true_world.attach(name, entry[2])
         _settle(true_world, 100)
         rng = np.random.default_rng(seed)
         if belief_objects != "none":
