@@ -97,7 +97,13 @@ def _run_show(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- main
 
-_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_show,)
+def _add_campaign(subparsers: _Subparsers) -> None:
+    from aiocram.campaign import add_parser
+
+    add_parser(subparsers)
+
+
+_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_show, _add_campaign)
 """Registrars of the subcommands, in help order."""
 
 

@@ -32,6 +32,7 @@ from ._location import Validation
 from ._perform import perform
 from ._pose import Pose, Transform, yaw_quaternion
 from ._process_module import PMStatus, ProcessModule, pm_execute
+from ._queries import action_of, newest_effective, performed, previous_performed
 from ._rules import (
     RuleSet,
     builtin_rules,
@@ -78,6 +79,7 @@ __all__ = [
     "ProjectionWorld",
     "WorldModel",
     "a",
+    "action_of",
     "an",
     "builtin_rules",
     "cram_key",
@@ -86,8 +88,11 @@ __all__ = [
     "environment",
     "equate",
     "events",
+    "newest_effective",
     "perform",
+    "performed",
     "pm_execute",
+    "previous_performed",
     "register_location_generator",
     "register_location_validator",
     "register_rule",

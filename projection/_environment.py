@@ -3,9 +3,10 @@
 The block runs in a new, independent :class:`executive.Environment` named ``projection``
 whose world model is a :class:`~projection._world_model.ProjectedWorldModel`, whose
 process modules are the six projection modules on the world, and whose rules are the
-projection location rules (costmaps). It acts on the given world itself (CRAM's copy of
-the world is commented out too). Leaving the block evaporates any goal still running and
-leaves every module offline.
+projection location rules (costmaps); it is marked ``projecting``, so projection
+reasoning is a pass-through inside it (as in CRAM). It acts on the given world itself
+(CRAM's copy of the world is commented out too). Leaving the block evaporates any goal
+still running and leaves every module offline.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ async def with_projected_robot(
         process_modules=projection_process_modules(world),
         world=ProjectedWorldModel(world),
         rules=rules,
+        projecting=True,
     )
     async with executive.environment(env):
         yield env

@@ -1,0 +1,60 @@
+"""The campaign's aggregation and argument checks (the real demo runs are in
+test_campaign_runs.py)."""
+
+from __future__ import annotations
+
+import pytest
+
+from aiocram.campaign import INVARIANTS, run_campaign, summarise
+
+
+def _run(seed, rate, proj, delivered, distance, broken=()):
+    objects = {f"o{i}": {"success": i < delivered, "retries": {"relocations": i}} for i in range(5)}
+    return {
+        "seed": seed,
+        "fault_rate": rate,
+        "projection": proj,
+        "objects": objects,
+        "distance_driven": distance,
+        "real_time_s": 100.0,
+        "wall_time_s": 2.0,
+        "invariants": {name: name not in broken for name in INVARIANTS},
+        "violations": {name: "broken on purpose" for name in broken},
+    }
+
+
+def test_summary_per_mode_and_rate():
+    results = [
+        _run(1, 0.0, True, 5, 10.0),
+        _run(2, 0.0, True, 4, 12.0),
+        _run(1, 0.1, True, 3, 20.0, broken=("drawer_closed",)),
+        _run(1, 0.0, False, 5, 30.0),
+    ]
+    rows = {(r["projection"], r["fault_rate"]): r for r in summarise(results)["rows"]}
+    assert rows[(True, 0.0)]["success_rate"] == pytest.approx(9 / 10)
+    assert rows[(True, 0.0)]["mean_distance_m"] == pytest.approx(11.0)
+    assert rows[(True, 0.0)]["retries"] == {"relocations": 20}
+    assert rows[(True, 0.1)]["invariant_violations"] == [
+        {"seed": 1, "invariant": "drawer_closed", "detail": "broken on purpose"}
+    ]
+    assert rows[(False, 0.0)]["invariant_violations"] == []
+
+
+def test_harness_errors_count_as_violations():
+    results = [{"seed": 3, "fault_rate": 0.0, "projection": True, "error": "RuntimeError: x",
+                "objects": {}, "invariants": {}, "wall_time_s": 0.1}]
+    (row,) = summarise(results)["rows"]
+    assert row["invariant_violations"][0]["invariant"] == "harness"
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"seeds": 0, "faults": [0.0]}, "at least 1"),
+        ({"seeds": 1, "faults": [1.5]}, "probabilities"),
+        ({"seeds": 1, "faults": [0.0], "backend": "ray"}, "unknown backend"),
+    ],
+)
+def test_bad_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        run_campaign(**kwargs)
