@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Job", "run_campaign", "summarise", "main"]
+__all__ = ["Job", "main", "run_campaign", "summarise"]
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,9 @@ def _jobs(seeds: int, faults: Sequence[float], modes: Sequence[bool], first_seed
     ]
 
 
-def _run_local(jobs: list[Job], workers: int, progress: Callable[[int, int], None]) -> list[dict[str, Any]]:
+def _run_local(
+    jobs: list[Job], workers: int, progress: Callable[[int, int], None]
+) -> list[dict[str, Any]]:
     if workers <= 1:
         out = []
         for i, job in enumerate(jobs):
@@ -178,8 +180,13 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 continue
             for name in INVARIANTS:
                 if not r["invariants"].get(name, False):
-                    violations.append({"seed": r["seed"], "invariant": name,
-                                       "detail": r.get("violations", {}).get(name, "")})
+                    violations.append(
+                        {
+                            "seed": r["seed"],
+                            "invariant": name,
+                            "detail": r.get("violations", {}).get(name, ""),
+                        }
+                    )
         rows.append(
             {
                 "projection": proj,
@@ -236,8 +243,16 @@ def _print_summary(summary: dict[str, Any]) -> None:
     from rich.table import Table
 
     table = Table(title="robustness campaign")
-    for col in ("projection", "fault rate", "runs", "success", "distance (m)", "sim time (s)",
-                "retries", "violations"):
+    for col in (
+        "projection",
+        "fault rate",
+        "runs",
+        "success",
+        "distance (m)",
+        "sim time (s)",
+        "retries",
+        "violations",
+    ):
         table.add_column(col)
     for r in summary["rows"]:
         table.add_row(
@@ -257,10 +272,16 @@ def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser("campaign", help="run the robustness campaign")
     p.add_argument("--seeds", type=int, default=20, help="seeds per fault rate (default 20)")
     p.add_argument("--first-seed", type=int, default=1)
-    p.add_argument("--faults", default="0,0.05,0.1,0.2",
-                   help="comma-separated uniform fault rates (default 0,0.05,0.1,0.2)")
-    p.add_argument("--no-projection", action="store_true",
-                   help="only run without projection reasoning (default: both modes)")
+    p.add_argument(
+        "--faults",
+        default="0,0.05,0.1,0.2",
+        help="comma-separated uniform fault rates (default 0,0.05,0.1,0.2)",
+    )
+    p.add_argument(
+        "--no-projection",
+        action="store_true",
+        help="only run without projection reasoning (default: both modes)",
+    )
     p.add_argument("--only-projection", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     p.add_argument("--backend", choices=("local", "dask"), default="local")
@@ -273,8 +294,10 @@ def _command(args: argparse.Namespace) -> int:
     try:
         faults = [float(x) for x in args.faults.split(",") if x.strip()]
     except ValueError:
-        print(f"aiocram campaign: --faults takes numbers like 0,0.05,0.1, got {args.faults!r}",
-              file=sys.stderr)
+        print(
+            f"aiocram campaign: --faults takes numbers like 0,0.05,0.1, got {args.faults!r}",
+            file=sys.stderr,
+        )
         return 2
     modes: tuple[bool, ...] = (False,) if args.no_projection else (True, False)
     if args.only_projection:
@@ -288,8 +311,13 @@ def _command(args: argparse.Namespace) -> int:
 
     try:
         results = run_campaign(
-            seeds=args.seeds, faults=faults, projection_modes=modes, workers=args.workers,
-            backend=args.backend, scheduler=args.scheduler, first_seed=args.first_seed,
+            seeds=args.seeds,
+            faults=faults,
+            projection_modes=modes,
+            workers=args.workers,
+            backend=args.backend,
+            scheduler=args.scheduler,
+            first_seed=args.first_seed,
             progress=progress,
         )
     except ValueError as exc:

@@ -97,13 +97,20 @@ def _run_show(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- main
 
+
+def _add_demo(subparsers: _Subparsers) -> None:
+    from aiocram.demo import add_parser
+
+    add_parser(subparsers)
+
+
 def _add_campaign(subparsers: _Subparsers) -> None:
     from aiocram.campaign import add_parser
 
     add_parser(subparsers)
 
 
-_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_show, _add_campaign)
+_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_demo, _add_show, _add_campaign)
 """Registrars of the subcommands, in help order."""
 
 

@@ -27,6 +27,7 @@ from ._forms import Tagged, par, par_loop, partial_order, pursue, seq, tag, try_
 from ._instruments import Instrument
 from ._lazy import LazyList
 from ._plan import Plan, PlanCall, plan
+from ._queries import ancestors, find_tasks, previous_sibling, walk
 from ._runtime import RunHistory, run, task_tree, top_level
 from ._status import Status
 from ._suspension import on_suspension, with_task_suspended
@@ -54,8 +55,10 @@ __all__ = [
     "Tagged",
     "Task",
     "TaskNode",
+    "ancestors",
     "current_task",
     "fail",
+    "find_tasks",
     "fl_and",
     "fl_eq",
     "fl_funcall",
@@ -68,6 +71,7 @@ __all__ = [
     "par_loop",
     "partial_order",
     "plan",
+    "previous_sibling",
     "pulsed",
     "pursue",
     "retry",
@@ -85,6 +89,7 @@ __all__ = [
     "try_all",
     "try_in_order",
     "wait_for",
+    "walk",
     "whenever",
     "with_failure_handling",
     "with_retry",

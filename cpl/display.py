@@ -15,6 +15,8 @@ from __future__ import annotations
 import asyncio
 import io
 import json
+import math
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType, TracebackType
@@ -292,8 +294,14 @@ class LiveTaskTree:
         self._live.update(self.renderable(final=final), refresh=True)
 
     async def _refresh_forever(self) -> None:
+        # Paced by the wall clock: under a mock or scaled clock the loop's time may run far
+        # ahead of real time, and a frame per simulated interval would swamp the run.
+        last = -math.inf
         while True:
-            self.refresh()
+            now = time.monotonic()
+            if now - last >= self._interval:
+                self.refresh()
+                last = now
             await asyncio.sleep(self._interval)
 
     async def __aenter__(self) -> LiveTaskTree:

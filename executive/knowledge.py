@@ -197,7 +197,7 @@ def _build() -> Mapping[str, ObjectKnowledge]:
         ("back", "left-side", "right-side", "front"),
     )
     cereal = _side_grasps((-0.03, 0.0, 0.04), (0.03, 0.0, 0.04), None, None, ("back", "front"))
-    spoon = (_top("top", (0.0, 0.0, 0.0), "top-across-x"),)
+    spoon = (_top("top", (0.0, 0.0, 0.015), "top-across-x"),)
     bowl = (_top("top", (-0.07, 0.0, 0.01), "top-across-y"),)
     plate = (
         _float_grasp(

@@ -13,11 +13,17 @@ from .checks import (
     check_placing_pose_stability,
 )
 from .demo import ObjectOutcome, table_setting
+from .reasoning import (
+    ProjectedParameters,
+    pick_best_parameters_by_distance,
+    with_projected_task_tree,
+)
 
 __all__ = [
     "CountedRetries",
     "ObjectOutcome",
     "PlacingPoseUnstable",
+    "ProjectedParameters",
     "atomic",
     "check_environment_manipulation_collisions",
     "check_navigating_collisions",
@@ -26,7 +32,9 @@ __all__ = [
     "check_placing_pose_stability",
     "environment",
     "fetch_deliver",
+    "pick_best_parameters_by_distance",
     "pick_place",
     "retry_ledger",
     "table_setting",
+    "with_projected_task_tree",
 ]

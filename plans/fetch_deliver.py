@@ -76,6 +76,8 @@ from .checks import (
     check_placing_pose_stability,
 )
 from .environment import DEFAULT_DISTANCE, handle_link
+from .pick_place import release_held
+from .reasoning import ProjectedParameters, with_projected_task_tree
 
 __all__ = [
     "ROBOT",
@@ -257,12 +259,12 @@ async def fetch(
 
             async def pick() -> None:
                 perceived = await perform(an.action(type="detecting", object=object_designator))
-                given = pick_up_action.current() if pick_up_action is not None else None
+                given_arm, given_grasp = _arm_and_grasp(pick_up_action)
                 picking = an.action(
                     type="picking-up",
                     object=perceived,
-                    arm=given.get("arm") if given is not None else arm,
-                    grasp=given.get("grasp") if given is not None else None,
+                    arm=given_arm if pick_up_action is not None else arm,
+                    grasp=given_grasp,
                 )
                 await perform(check_picking_up_collisions(picking))
 
@@ -296,6 +298,23 @@ async def fetch(
 
     result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
     return result
+
+
+def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
+    """The arm and grasp of a given ``picking-up`` (its newest member): its properties,
+    else those of its grounding when it was referenced (a projected pick names them only
+    there). ``(None, None)`` without one."""
+    if pick_up_action is None:
+        return None, None
+    given = pick_up_action.current()
+    arm, grasp = given.get("arm"), given.get("grasp")
+    grounded = given.newest_effective()
+    if grounded is not None and (arm is None or grasp is None):
+        arguments = grounded.reference().arguments
+        if isinstance(arguments, dict):
+            arm = arm if arm is not None else arguments.get("arm")
+            grasp = grasp if grasp is not None else arguments.get("grasp")
+    return arm, grasp
 
 
 @rule("action", "fetching")
@@ -432,14 +451,20 @@ SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
 
 async def drop_at_sink(object_designator: ObjectDesignator) -> None:
     """Go to CRAM's fixed pose at the sink and place the object there; every failure is
-    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded poses)."""
+    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded poses). Deliberate
+    addition: a shielded cleanup releases the object if it is still in a hand (the
+    placing failed, or the drop was evaporated): open the gripper and ``ObjectDetached``
+    (:func:`plans.pick_place.release_held`), so no object stays attached after it."""
 
     async def drop() -> None:
         await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
         target = a.location(pose=SINK_DROP_POSE)
         await perform(an.action(type="placing", object=object_designator, target=target))
 
-    await ignoring(drop, (cpl.PlanFailure, DesignatorError))
+    try:
+        await ignoring(drop, (cpl.PlanFailure, DesignatorError))
+    finally:
+        await cpl.shielded(release_held(object_designator))
 
 
 @cpl.plan(name="transport")
@@ -448,10 +473,18 @@ async def transport(
     location: LocationDesignator,
     target: LocationDesignator,
     arm: str | None = None,
+    projection_reasoning: bool = True,
+    projection_runs: int = 3,
 ) -> ObjectDesignator | None:
     """Access the container (if ``location`` is ``in`` one), search, fetch and deliver the
     object; an ``object-undeliverable`` makes it drop the object at the sink. Search and
-    fetch failures propagate. Cleanup: the container is sealed in a ``finally`` that runs
+    fetch failures propagate. Fetch and deliver run inside
+    :func:`~plans.reasoning.with_projected_task_tree` (``projection_runs`` imagined runs,
+    the designator's ``projection-runs`` property, default 3; then the real one
+    with the chosen base poses, arm, grasp and placing target) when
+    ``projection_reasoning`` (the designator's ``projection-reasoning`` property, default
+    true; CRAM's demo disables it) and the environment can imagine; otherwise it is a
+    pass-through. Cleanup: the container is sealed in a ``finally`` that runs
     shielded, so it also runs when the transport is evaporated (the evaporation is
     re-raised afterwards). Returns the delivered object designator, or ``None`` when it was
     dropped at the sink."""
@@ -465,16 +498,38 @@ async def transport(
         found = await perform(
             an.action(type="searching", object=object_designator, location=location)
         )
-        fetched: ObjectDesignator = await perform(an.action(type="fetching", object=found, arm=arm))
 
-        async def deliver_it() -> bool:
-            await perform(an.action(type="delivering", object=fetched, target=target))
-            return True
+        async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
+            fetched: ObjectDesignator = await perform(
+                an.action(
+                    type="fetching",
+                    object=found,
+                    arm=arm,
+                    robot_location=given.fetch_robot_location,
+                    pick_up_action=given.pick_up_action,
+                )
+            )
 
-        delivered = await cpl.with_failure_handling(
-            deliver_it, [(ObjectUndeliverable, lambda _f: _drop_and_return(fetched))]
+            async def deliver_it() -> bool:
+                await perform(
+                    an.action(
+                        type="delivering",
+                        object=fetched,
+                        target=target,
+                        robot_location=given.deliver_robot_location,
+                        place_action=given.place_action,
+                    )
+                )
+                return True
+
+            delivered = await cpl.with_failure_handling(
+                deliver_it, [(ObjectUndeliverable, lambda _f: _drop_and_return(fetched))]
+            )
+            return fetched if delivered else None
+
+        return await with_projected_task_tree(
+            fetch_and_deliver, projection_runs, enabled=projection_reasoning
         )
-        return fetched if delivered else None
     finally:
         if not accessible:
             sealing = an.action(
@@ -497,6 +552,8 @@ def _transporting(d: Designator) -> Iterator[Any]:
             "location": _location(d, "location"),
             "target": _location(d, "target"),
             "arm": d.get("arm"),
+            "projection_reasoning": bool(d.get("projection-reasoning", True)),
+            "projection_runs": int(d.get("projection-runs", 3)),
         },
     )
 

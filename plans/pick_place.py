@@ -39,11 +39,11 @@ from executive import (
     perform,
     rule,
 )
-from executive.events import ObjectAttached, ObjectDetached
+from executive.events import ObjectAttached, ObjectDetached, object_name
 
 from ._common import perform_ignoring, to_base, tool_frame, wrist_link
 
-__all__ = ["pick_up", "place", "placing_waypoints"]
+__all__ = ["pick_up", "place", "placing_waypoints", "release_held"]
 
 
 def _sides(arm: str, poses: Sequence[Pose]) -> dict[str, tuple[Pose, ...]]:
@@ -229,3 +229,20 @@ def _placing(d: Designator) -> Iterator[Any]:
                     "grasp": grasp_name,
                 },
             )
+
+
+async def release_held(object_designator: Any) -> None:
+    """Let go of ``object_designator`` wherever it is: for each arm the world model says
+    holds it, open that gripper (gripper failures ignored) and emit ``ObjectDetached``
+    (the object drops and settles). Nothing held: nothing happens. The cleanup of
+    ``drop-at-sink``: CRAM only detached inside ``place``, so a failed drop left the object
+    in the hand for the rest of the demo."""
+    world = current_environment().world
+    in_hand = getattr(world, "object_in_hand", None)
+    if in_hand is None:
+        return
+    name = object_name(object_designator)
+    for arm in knowledge.ARMS:
+        if in_hand(arm) == name:
+            await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
+            emit(ObjectDetached(object_designator, arm, wrist_link(arm)))

@@ -33,15 +33,40 @@ _EXPORTS = MappingProxyType(
         "World": "projection._world",
         "ProjectedWorldModel": "projection._world_model",
         "with_projected_robot": "projection._environment",
+        "ProjectionImagination": "projection._imagination",
+        "FaultProfile": "projection._real_robot",
+        "RealWorldModel": "projection._real_robot",
+        "make_world_pair": "projection._real_robot",
+        "real_robot_clock": "projection._real_robot",
+        "with_real_robot": "projection._real_robot",
         "render": "projection.render",
     }
 )
 
-__all__ = ["ProjectedWorldModel", "World", "render", "with_projected_robot"]
+__all__ = [
+    "FaultProfile",
+    "ProjectedWorldModel",
+    "ProjectionImagination",
+    "RealWorldModel",
+    "World",
+    "make_world_pair",
+    "real_robot_clock",
+    "render",
+    "with_projected_robot",
+    "with_real_robot",
+]
 
 if TYPE_CHECKING:
     from projection import render
     from projection._environment import with_projected_robot
+    from projection._imagination import ProjectionImagination
+    from projection._real_robot import (
+        FaultProfile,
+        RealWorldModel,
+        make_world_pair,
+        real_robot_clock,
+        with_real_robot,
+    )
     from projection._world import World
     from projection._world_model import ProjectedWorldModel
 
@@ -53,30 +78,3 @@ def __getattr__(name: str) -> Any:
     if name == "render":
         return importlib.import_module(module)
     return getattr(importlib.import_module(module), name)
-
-
-# The simulated real robot (projection._real_robot): appended to the lazy exports.
-_REAL_ROBOT = (
-    "FaultProfile",
-    "RealWorldModel",
-    "make_world_pair",
-    "real_robot_clock",
-    "with_real_robot",
-)
-_EXPORTS = MappingProxyType({**_EXPORTS, **dict.fromkeys(_REAL_ROBOT, "projection._real_robot")})
-__all__ += [
-    "FaultProfile",
-    "RealWorldModel",
-    "make_world_pair",
-    "real_robot_clock",
-    "with_real_robot",
-]
-
-if TYPE_CHECKING:
-    from projection._real_robot import (
-        FaultProfile,
-        RealWorldModel,
-        make_world_pair,
-        real_robot_clock,
-        with_real_robot,
-    )

@@ -55,12 +55,14 @@ __all__ = [
     "add_on_box",
     "add_range",
     "add_reachable_for",
+    "add_reachable_in_drawer",
     "add_relation",
     "add_side",
     "add_slots",
     "add_visible_for",
     "closest_edge",
     "constant_height",
+    "drawer_shoulder",
     "facing",
     "gaussian",
     "near_padding",
@@ -430,6 +432,84 @@ def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[f
     return mu
 
 
+#: The shoulders in ``base_footprint`` (x, |y|): torso x + shoulder y of the robot URDF.
+SHOULDER_XY: Final = (_urdf.TORSO_XYZ[0], _urdf.SHOULDER_Y)
+
+
+def drawer_shoulder(x: float, y: float, yaw: float, arm: str) -> tuple[float, float]:
+    """The ``arm``'s shoulder point (map xy) of a base at (x, y, yaw)."""
+    sx, sy = SHOULDER_XY[0], SHOULDER_XY[1] if arm == "left" else -SHOULDER_XY[1]
+    c, s = math.cos(yaw), math.sin(yaw)
+    return x + c * sx - s * sy, y + s * sx + c * sy
+
+
+def add_reachable_in_drawer(
+    cm: Costmap,
+    point: Sequence[float],
+    drawer_lo: Sequence[float],
+    drawer_hi: Sequence[float],
+    outward: tuple[float, float],
+    arm: str | None,
+) -> float:
+    """``reachable-for`` a point inside an open drawer (after CRAM's ``pr2-em`` drawer
+    costmaps, which choose the robot's side of the drawer by arm and orient the base
+    along the drawer axis). Deviation: CRAM adds them only for ``(object <container>)``
+    (the handle); here they replace the reach discs whenever the reach point lies in an
+    open drawer, because from straight in front of the drawer the base (half width
+    0.325 m) cannot come within 0.7 m of an object 0.2-0.3 m behind the drawer front.
+
+    Factors: the usual Gaussian (minvar 0.5, score 5); ``drawer-side`` (score 6): beside
+    the drawer strip, on the robot's right of it for the left arm (the drawer is on the
+    robot's left), on its left for the right arm, either side without an arm;
+    ``drawer-reach`` / ``drawer-reach-minimal`` (scores 7 / 6): the reach point within
+    0.7 m (beyond 0.2 m) of that arm's *shoulder* (the base orientation is fixed, so the
+    shoulder is a constant offset). Orientation: facing the cabinet along the drawer axis
+    (``-outward``); height 0. Returns the base yaw."""
+    ox, oy = outward
+    yaw = math.atan2(-oy, -ox)
+    fx, fy = math.cos(yaw), math.sin(yaw)
+    lx, ly = -fy, fx  # the robot's left
+    corners = [(a, b) for a in (drawer_lo[0], drawer_hi[0]) for b in (drawer_lo[1], drawer_hi[1])]
+    left_lo = min(lx * a + ly * b for a, b in corners)
+    left_hi = max(lx * a + ly * b for a, b in corners)
+    px, py = float(point[0]), float(point[1])
+    sides = ("left", "right") if arm is None else (arm,)
+    mu, cov = pose_covariance([point], POSE_MINVAR)
+    cm.add("pose-distribution", gaussian(mu, cov), 5)
+
+    def side_mask(x: Array, y: Array, side: str) -> Array:
+        along = lx * x + ly * y
+        return along < left_lo if side == "left" else along > left_hi
+
+    def beside(x: Array, y: Array) -> Array:
+        out = np.zeros(x.shape, dtype=bool)
+        for side in sides:
+            out |= side_mask(x, y, side)
+        return out.astype(float)
+
+    def shoulder_distance(x: Array, y: Array) -> Array:
+        best = np.full(x.shape, np.inf)
+        for side in sides:
+            sx, sy = drawer_shoulder(0.0, 0.0, yaw, side)
+            d = np.hypot(px - (x + sx), py - (y + sy))
+            best = np.where(side_mask(x, y, side), np.minimum(best, d), best)
+        return best
+
+    def reach(x: Array, y: Array) -> Array:
+        return (shoulder_distance(x, y) <= IN_REACH_DISTANCE).astype(float)
+
+    def minimal(x: Array, y: Array) -> Array:
+        d = shoulder_distance(x, y)
+        return ((d >= REACH_MINIMAL_DISTANCE) & np.isfinite(d)).astype(float)
+
+    cm.add("drawer-side", beside, 6)
+    cm.add("drawer-reach", reach, 7)
+    cm.add("drawer-reach-minimal", minimal, 6)
+    cm.add_orientation(lambda _x, _y: [yaw])
+    cm.add_height(constant_height(0.0))
+    return yaw
+
+
 def _clear_rays(
     client: int, starts: Array, ends: Array, exclude: frozenset[int], tolerance: float = 0.02
 ) -> Array:
@@ -713,15 +793,21 @@ def add_relation(
     support: Box2 | None,
     edge: str,
     yaw: float = 0.0,
+    margin: float = 0.0,
 ) -> None:
     """``left-of`` / ``right-of`` / ``in-front-of`` / ``behind``: the supporting body's
     AABB (score 9, when there is one) and the potential field (score 7) at the reference's
     xy in the body's frame: |p_axis| / |p| where the relation's predicate holds and that is
-    > 0.2, else 0."""
+    > 0.2, else 0. Deviation: the support box is shrunk by ``margin`` on every side (the
+    caller passes the ``for`` object's half footprint plus a clearance), so the placed
+    object lies wholly on its support; CRAM's bare AABB let its centre reach the edge,
+    half off the counter (v0.8.1 then relied on its stability check)."""
     if relation not in RELATIONS:
         raise ValueError(f"unknown relation {relation!r}; known: {', '.join(RELATIONS)}")
     if support is not None:
-        cm.add("supporting-object", _box_fn(support[0], support[1]), 9)
+        lo = (support[0][0] + margin, support[0][1] + margin)
+        hi = (support[1][0] - margin, support[1][1] - margin)
+        cm.add("supporting-object", _box_fn(lo, hi), 9)
     axis, greater = _RELATIONS[edge][relation]
     ox, oy = float(reference[0]), float(reference[1])
     c, s = math.cos(yaw), math.sin(yaw)

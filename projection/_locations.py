@@ -68,6 +68,9 @@ _REF_SIZE: Final = 0.1  # size and padding of a location-designator reference / 
 _FLOOR_Z: Final = 0.05
 _YAW_TOLERANCE: Final = 0.1
 _MIN_VALUE: Final = 0.10
+#: Clearance (m) between a ``for`` object placed by a spatial relation and its support's
+#: edge (see :func:`projection._costmaps.add_relation`).
+_SUPPORT_CLEARANCE: Final = 0.03
 
 
 @dataclass
@@ -80,6 +83,10 @@ class _Plan:
     target: tuple[float, float] | None = None
     for_type: str | None = None
     for_item: str | None = None
+    #: reachable-for into an open drawer: the fixed base yaw and the arms whose shoulder
+    #: the reach distance is measured from (None: the usual facing / base-origin check).
+    drawer_yaw: float | None = None
+    drawer_arms: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -210,7 +217,23 @@ class LocationCostmaps:
         return "accept" if yaw_ok else "reject"
 
     def validate_reachable(self, d: Designator, pose: Pose) -> str:
-        """reachable-location: 0.2 < d < 0.7 to the reach point, yaw within 0.1 rad."""
+        """reachable-location: 0.2 < d < 0.7 to the reach point, yaw within 0.1 rad. For a
+        reach point in an open drawer (see :func:`projection._costmaps.add_reachable_in_drawer`):
+        d measured from the reaching arm's shoulder, yaw within 0.1 rad of the drawer
+        axis."""
+        plan = self._plan(d) if "reachable-for" in d else None
+        if plan is not None and plan.drawer_yaw is not None:
+            assert plan.target is not None
+            p = self._map_pose(pose)
+            yaw = _yaw_of(p.orientation)
+            if _angle_diff(yaw, plan.drawer_yaw) > _YAW_TOLERANCE:
+                return "reject"
+            for arm in plan.drawer_arms:
+                sx, sy = cm.drawer_shoulder(p.position[0], p.position[1], yaw, arm)
+                dist = math.hypot(plan.target[0] - sx, plan.target[1] - sy)
+                if cm.REACH_MINIMAL_DISTANCE < dist < cm.IN_REACH_DISTANCE:
+                    return "accept"
+            return "reject"
         return self._distance_and_yaw(
             d, pose, "reachable-for", cm.REACH_MINIMAL_DISTANCE, cm.IN_REACH_DISTANCE
         )
@@ -324,7 +347,12 @@ class LocationCostmaps:
             target, exclude = self._target(d, robot_key)
             plan.robot_key = robot_key
             plan.target = (target[0], target[1])
-            if robot_key == "reachable-for":
+            drawer = self._open_drawer_at(target) if robot_key == "reachable-for" else None
+            if drawer is not None:
+                lo, hi, outward = drawer
+                plan.drawer_yaw = cm.add_reachable_in_drawer(costmap, target, lo, hi, outward, arm)
+                plan.drawer_arms = (arm,) if arm is not None else ("left", "right")
+            elif robot_key == "reachable-for":
                 cm.add_reachable_for(costmap, [target])
             else:
                 bodies = {world.robot_body}
@@ -514,6 +542,46 @@ class LocationCostmaps:
             return self._to_map(pose), None
         raise self._error(d, f"({key} ...) needs a target: (location L), (object O) or (pose P)")
 
+    def _open_drawer_at(
+        self, point: Sequence[float]
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float]] | None:
+        """The open drawer holding ``point`` (a kitchen link with a ``<link>_joint``
+        whose AABB contains it, sticking out of its cabinet by > 0.05 m): its AABB and the
+        horizontal axis it sticks out along (the opening direction); else None."""
+        world = self.world
+        for link in cm.KITCHEN_LINKS:
+            try:
+                world.joint_position(f"{link}_joint")
+            except LookupError:
+                continue
+            lo, hi = world.link_aabb(link)
+            if not (lo[0] < point[0] < hi[0] and lo[1] < point[1] < hi[1]):
+                continue
+            if not lo[2] - 0.01 <= point[2] <= hi[2] + 0.05:
+                continue
+            best: tuple[float, tuple[float, float]] | None = None
+            for other in cm.KITCHEN_LINKS:
+                if other == link or other.startswith(link):
+                    continue
+                clo, chi = world.link_aabb(other)
+                if not ((clo[1] <= lo[1] + 1e-3 and hi[1] <= chi[1] + 1e-3)
+                        or (clo[0] <= lo[0] + 1e-3 and hi[0] <= chi[0] + 1e-3)):
+                    continue
+                if not (lo[0] < chi[0] and clo[0] < hi[0] and lo[1] < chi[1] and clo[1] < hi[1]
+                        and lo[2] < chi[2] and clo[2] < hi[2]):
+                    continue
+                for amount, axis in (
+                    (clo[0] - lo[0], (-1.0, 0.0)),
+                    (hi[0] - chi[0], (1.0, 0.0)),
+                    (clo[1] - lo[1], (0.0, -1.0)),
+                    (hi[1] - chi[1], (0.0, 1.0)),
+                ):
+                    if best is None or amount > best[0]:
+                        best = (amount, axis)
+            if best is not None and best[0] > 0.05:
+                return lo, hi, best[1]
+        return None
+
     def _support(
         self, point: Sequence[float]
     ) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
@@ -577,7 +645,12 @@ class LocationCostmaps:
                     edge = "front"
                     if is_object and support is not None:
                         edge = cm.closest_edge(support[0], support[1], point)
-                    cm.add_relation(costmap, key, point, box, edge)
+                    margin = (
+                        max(for_size[0], for_size[1]) / 2.0 + _SUPPORT_CLEARANCE
+                        if for_size is not None
+                        else 0.0
+                    )
+                    cm.add_relation(costmap, key, point, box, edge, margin=margin)
 
 
 def location_rules(world: World, **options: Any) -> RuleSet:

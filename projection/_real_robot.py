@@ -957,11 +957,14 @@ async def with_real_robot(
 
         rules = location_rules(belief_world)
     sync_robot(true_world, belief_world)
+    from projection._imagination import ProjectionImagination
+
     env = executive.Environment(
         name,
         process_modules=real_process_modules(true_world, belief_world, faults),
         world=model,
         rules=rules,
+        imagination=ProjectionImagination(belief_world),
     )
     async with executive.environment(env):
         yield env
@@ -980,6 +983,7 @@ def make_world_pair(
     objects: Mapping[str, SceneObject] | None = None,
     belief_objects: Literal["none", "exact", "noisy"] = "none",
     noise: tuple[float, float] = (0.02, 0.1),
+    gui: bool = False,
 ) -> tuple[World, World]:
     """Two worlds from the same assets: ``(true_world, belief_world)``, robot and kitchen
     identical. ``objects`` (default :data:`DEMO_OBJECTS`; name -> (type, pose[, link to
@@ -987,12 +991,13 @@ def make_world_pair(
     from the counter below), which then settles for 100 physics steps. The belief knows
     them not at all (``"none"``: perception teaches it), exactly (``"exact"``), or with
     Gaussian ``noise`` = (x/y std m, yaw std rad) drawn from ``seed`` (``"noisy"``).
-    The caller closes both worlds. Bad ``belief_objects``: ValueError."""
+    ``gui=True`` shows the true world in a PyBullet window (needs a display). The caller
+    closes both worlds. Bad ``belief_objects``: ValueError."""
     if belief_objects not in ("none", "exact", "noisy"):
         raise ValueError(
             f"belief_objects must be 'none', 'exact' or 'noisy', got {belief_objects!r}"
         )
-    true_world, belief_world = World(seed=seed), World(seed=seed)
+    true_world, belief_world = World(seed=seed, gui=gui), World(seed=seed)
     try:
         spec = DEMO_OBJECTS if objects is None else objects
         for name, entry in spec.items():

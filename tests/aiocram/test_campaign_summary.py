@@ -41,8 +41,17 @@ def test_summary_per_mode_and_rate():
 
 
 def test_harness_errors_count_as_violations():
-    results = [{"seed": 3, "fault_rate": 0.0, "projection": True, "error": "RuntimeError: x",
-                "objects": {}, "invariants": {}, "wall_time_s": 0.1}]
+    results = [
+        {
+            "seed": 3,
+            "fault_rate": 0.0,
+            "projection": True,
+            "error": "RuntimeError: x",
+            "objects": {},
+            "invariants": {},
+            "wall_time_s": 0.1,
+        }
+    ]
     (row,) = summarise(results)["rows"]
     assert row["invariant_violations"][0]["invariant"] == "harness"
 
