@@ -71,9 +71,15 @@ def run_job(job: Job) -> dict[str, Any]:
     return result
 
 
-def _jobs(seeds: int, faults: Sequence[float], modes: Sequence[bool], first_seed: int) -> list[Job]:
+def _jobs(
+    seeds: int,
+    faults: Sequence[float],
+    modes: Sequence[bool],
+    first_seed: int,
+    objects: tuple[str, ...],
+) -> list[Job]:
     return [
-        Job(seed=first_seed + s, fault_rate=f, projection=p)
+        Job(seed=first_seed + s, fault_rate=f, projection=p, objects=objects)
         for p in modes
         for f in faults
         for s in range(seeds)
@@ -137,6 +143,7 @@ def run_campaign(
     backend: str = "local",
     scheduler: str | None = None,
     first_seed: int = 1,
+    objects: Sequence[str] = Job.objects,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run every (seed, fault rate, projection mode) job and return the raw results."""
@@ -145,7 +152,7 @@ def run_campaign(
     bad = [f for f in faults if not (0.0 <= f <= 1.0) or math.isnan(f)]
     if bad:
         raise ValueError(f"fault rates are probabilities in [0, 1], got {bad}")
-    jobs = _jobs(seeds, faults, projection_modes, first_seed)
+    jobs = _jobs(seeds, faults, projection_modes, first_seed, tuple(objects))
     report = progress or (lambda done, total: None)
     if backend == "local":
         return _run_local(jobs, workers, report)
@@ -273,6 +280,12 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seeds", type=int, default=20, help="seeds per fault rate (default 20)")
     p.add_argument("--first-seed", type=int, default=1)
     p.add_argument(
+        "--objects",
+        nargs="+",
+        default=list(Job.objects),
+        help="objects to set in every run (default: all five)",
+    )
+    p.add_argument(
         "--faults",
         default="0,0.05,0.1,0.2",
         help="comma-separated uniform fault rates (default 0,0.05,0.1,0.2)",
@@ -318,6 +331,7 @@ def _command(args: argparse.Namespace) -> int:
             backend=args.backend,
             scheduler=args.scheduler,
             first_seed=args.first_seed,
+            objects=args.objects,
             progress=progress,
         )
     except ValueError as exc:

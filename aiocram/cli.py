@@ -104,13 +104,24 @@ def _add_demo(subparsers: _Subparsers) -> None:
     add_parser(subparsers)
 
 
+def _add_bench(subparsers: _Subparsers) -> None:
+    from aiocram.bench import add_parser
+
+    add_parser(subparsers)
+
+
 def _add_campaign(subparsers: _Subparsers) -> None:
     from aiocram.campaign import add_parser
 
     add_parser(subparsers)
 
 
-_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (_add_demo, _add_show, _add_campaign)
+_SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (
+    _add_demo,
+    _add_show,
+    _add_bench,
+    _add_campaign,
+)
 """Registrars of the subcommands, in help order."""
 
 

@@ -109,10 +109,20 @@ def main() -> None:
 
         n = max(50, reps // 10)
         raw_us = median_us(raw_ik, n)
-        row("move_tcp (verified IK, cold)", median_us(ik_cold, n),
-            "calculateInverseKinematics 100 it", raw_us, "target ≤ 3x")
-        row("move_tcp (verified IK, cached)", median_us(ik_cached, n),
-            "calculateInverseKinematics 100 it", raw_us, "target ≤ 3x")
+        row(
+            "move_tcp (verified IK, cold)",
+            median_us(ik_cold, n),
+            "calculateInverseKinematics 100 it",
+            raw_us,
+            "target ≤ 3x",
+        )
+        row(
+            "move_tcp (verified IK, cached)",
+            median_us(ik_cached, n),
+            "calculateInverseKinematics 100 it",
+            raw_us,
+            "target ≤ 3x",
+        )
         w.park_arms()
 
         # probe_arm_trajectory: the cup's back grasp with the right arm (5 waypoints, from
@@ -133,16 +143,31 @@ def main() -> None:
         def raw_five() -> None:
             for p in wp_map:
                 pb.calculateInverseKinematics(
-                    robot, w._tool["right"], p.position, p.orientation,
-                    maxNumIterations=100, residualThreshold=1e-4, physicsClientId=c,
+                    robot,
+                    w._tool["right"],
+                    p.position,
+                    p.orientation,
+                    maxNumIterations=100,
+                    residualThreshold=1e-4,
+                    physicsClientId=c,
                 )
 
         five_us = median_us(raw_five, max(20, reps // 40))
         m = max(20, reps // 40)
-        row("probe_arm_trajectory 5 wp (cold)", median_us(probe_cold, m),
-            "5 x calculateInverseKinematics 100 it", five_us, "was ~30 ms")
-        row("probe_arm_trajectory 5 wp (warm)", median_us(probe_warm, reps // 4),
-            "5 x calculateInverseKinematics 100 it", five_us, "target ≤ 3x")
+        row(
+            "probe_arm_trajectory 5 wp (cold)",
+            median_us(probe_cold, m),
+            "5 x calculateInverseKinematics 100 it",
+            five_us,
+            "was ~30 ms",
+        )
+        row(
+            "probe_arm_trajectory 5 wp (warm)",
+            median_us(probe_warm, reps // 4),
+            "5 x calculateInverseKinematics 100 it",
+            five_us,
+            "target ≤ 3x",
+        )
         print(f"{'':<34} IK memo: {w.ik_cache_stats}, {len(w._ik_cache)} entries")
 
         # detect vs one ray batch and vs one 320x200 segmentation render

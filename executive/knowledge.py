@@ -29,6 +29,7 @@ __all__ = [
     "ARM_CONFIGURATIONS",
     "ARM_JOINTS",
     "LIFT_OFFSET",
+    "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
     "STANDARD_TO_PR2_ROTATION",
     "Grasp",
@@ -84,6 +85,14 @@ STANDARD_ROTATIONS: Mapping[str, Mat3] = MappingProxyType(
         "top-across-y": ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
     }
 )
+
+
+#: Types whose grasps ignore the object's orientation (CRAM's rotationally symmetric
+#: types: picking replaces the object's rotation in the base frame by the identity, so a
+#: grasp is computed as if the object faced the robot). CRAM HEAD declares none;
+#: deliberate: the bowl is a ring here, and its random yaw otherwise put the rim grasp
+#: where no arm could reach it without sweeping over the neighbouring objects.
+ROTATIONALLY_SYMMETRIC: frozenset[str] = frozenset({"bowl"})
 
 
 @dataclass(frozen=True)

@@ -119,29 +119,44 @@ def check_picking_up_collisions(action: ActionDesignator, retries: int = 30) -> 
     raise ObjectUnreachable(f"no reachable picking-up solution for {action.short()}", object=obj)
 
 
-def check_placing_collisions(action: ActionDesignator) -> Designator:
+def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Designator:
     """Probe the ``placing`` trajectory: IK for every waypoint; collisions at the reach
     and retract waypoints (v0.8.1; HEAD only logged collisions, a quirk fixed here), the
-    put waypoint is IK-only (the object touches its support there). No ``next_solution``
-    iteration (HEAD): the deliver plan's target loop retries. Failure or designator error
-    -> ``ObjectUnreachable``. Returns the newest member of the chain."""
+    put waypoint is IK-only (the object touches its support there). Deliberate deviation
+    from HEAD (which probed only the first grounding): up to ``retries`` further
+    solutions of the grounding are probed (``next_solution``, as for picking up): the
+    placing yaw variants of :mod:`plans.pick_place`; the deliver plan's target loop still
+    retries other targets. Returns the first member of the chain that passes. No
+    solution passes, or a designator error -> ``ObjectUnreachable`` (naming the first
+    solution's failure)."""
     world = _world()
-    current = action.current()
+    current: Designator | None = action.current()
     obj: Any = None
+    first: ProbeResult | None = None
+    used = 0
     try:
-        args = dict(cast(Any, current.reference()).arguments)
-        obj = args["object_designator"]
-        waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
-        checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
-        checks += [True] * len(args["retract_poses"])
-        result = world.probe_arm_trajectory(
-            args["arm"], waypoints, allowed_contacts=(object_name(obj),), check_collisions=checks
-        )
+        while current is not None:
+            args = dict(cast(Any, current.reference()).arguments)
+            obj = args["object_designator"]
+            waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
+            checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
+            checks += [True] * len(args["retract_poses"])
+            result = world.probe_arm_trajectory(
+                args["arm"], waypoints, allowed_contacts=(object_name(obj),),
+                check_collisions=checks,
+            )
+            if result.ok:
+                return current
+            log.info("placing with %s: %s", args["arm"], _failure(result))
+            first = first or result
+            used += 1
+            if used > retries:
+                break
+            current = current.next_solution()
     except DesignatorError as error:
         raise ObjectUnreachable(str(error), object=obj) from error
-    if not result.ok:
-        raise ObjectUnreachable(f"placing: {_failure(result)}", object=obj) from result.failure
-    return current
+    assert first is not None
+    raise ObjectUnreachable(f"placing: {_failure(first)}", object=obj) from first.failure
 
 
 def check_placing_pose_stability(object_type: str, pose: Pose) -> None:

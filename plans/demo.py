@@ -117,19 +117,81 @@ def place_location(object_type: str) -> LocationDesignator:
             object_count=3,
             range_invert=0.5,
         )
+    # (on the island) added to CRAM's relations (deliberate): the reference bowl is the
+    # delivered one; if the bowl is still on the sink counter these designators have no
+    # solution (object-undeliverable), rather than a spot beside it on the sink counter
     if object_type in ("cup", "spoon"):
-        return a.location(right_of=bowl, near=bowl, for_=an.object(type=object_type))
+        return a.location(
+            right_of=bowl, near=bowl, on=ISLAND, for_=an.object(type=object_type)
+        )
     if object_type == "milk":
-        return a.location(left_of=bowl, far_from=bowl, for_=an.object(type="milk"))
+        return a.location(left_of=bowl, far_from=bowl, on=ISLAND, for_=an.object(type="milk"))
     return a.location(pose=CEREAL_TARGET)
 
 
 def _spawn_location(object_type: str) -> LocationDesignator:
-    left, front = ("side", "left"), ("side", "front")
+    """Where ``random`` spawning samples the object: CRAM's spawning region (the sink
+    counter's left-front quarter) intersected with the object's own fetch location
+    (deliberate: CRAM spawned the bowl anywhere in the quarter but searched it only
+    >= 0.5 m from the counter's origin, so it was often never found), with ``(for
+    <type>)``: the height of the object's half size above the surface and no contact with
+    the objects already spawned."""
     for_ = an.object(type=object_type)
     if object_type == "spoon":
-        return a.location(front, in_=DRAWER, range=0.2, range_invert=0.12, for_=for_)
-    return a.location(left, front, on=SINK, for_=for_)
+        return a.location(
+            ("side", "front"), in_=DRAWER, range=0.2, range_invert=0.12, for_=for_
+        )
+    fetch = fetch_location(object_type)
+    sides = [("side", s) for s in ("left", "front") if s not in fetch.get_all("side")]
+    return a.location(*fetch.properties, *sides, for_=for_)
+
+
+#: Clearance (m) the spoon keeps from the cabinet front once the drawer is open by the
+#: transport's ``accessing`` distance (0.3 m, CRAM's): nearer, the palm of a top grasp
+#: touches the counter top above the drawer.
+SPOON_CLEARANCE = 0.1
+
+
+def _spawn_filter(world: Any, object_type: str) -> Any:
+    """Deliberate restriction of the spoon's spawning region (CRAM: ``(range 0.2)``
+    around the drawer box's centre, i.e. up to 0.29 m deep in this 0.58 m drawer): only
+    the part that comes out at least :data:`SPOON_CLEARANCE` beyond the cabinet front when
+    the drawer is opened 0.3 m along -x (the sink-side drawer opens towards -x; its
+    closed front is its box's -x face)."""
+    if object_type != "spoon":
+        return lambda _pose: True
+    from .environment import DEFAULT_DISTANCE
+
+    front = world.link_aabb(DRAWER_LINK)[0][0]
+    return lambda pose: pose.position[0] - DEFAULT_DISTANCE <= front - SPOON_CLEARANCE
+
+
+def _reachable_sample(location: LocationDesignator, accept: Any, tries: int = 30) -> Pose:
+    """The first sample of ``location`` that a robot location ``(reachable-for pr2)``
+    resolves for (deliberate: CRAM's spawning region reaches 0.65 m deep into the
+    counter, beyond the arm's reach from any collision-free base pose, so such objects
+    were unfetchable); after ``tries`` samples, the last one."""
+    current: Any = location
+    sample = location.reference()
+    for _ in range(tries):
+        sample = current.reference()
+        if not accept(sample):
+            nxt = current.next_solution()
+            if nxt is None:
+                break
+            current = nxt
+            continue
+        reach = a.location(reachable_for="pr2", location=a.location(pose=sample))
+        try:
+            reach.reference()
+            return sample  # type: ignore[no-any-return]
+        except DesignatorError:
+            pass
+        nxt = current.next_solution()
+        if nxt is None:
+            break
+        current = nxt
+    return sample  # type: ignore[no-any-return]
 
 
 def _spawn(world: Any, objects: Sequence[str], random: bool, rng: np.random.Generator) -> None:
@@ -138,7 +200,8 @@ def _spawn(world: Any, objects: Sequence[str], random: bool, rng: np.random.Gene
         if name in getattr(world, "objects", {}):
             world.remove_object(name)
         if random:
-            sample = _spawn_location(object_type).reference()
+            location = _spawn_location(object_type)
+            sample = _reachable_sample(location, _spawn_filter(world, object_type))
             yaw = float(rng.uniform(-math.pi, math.pi))
             pose = Pose(sample.position, yaw_quaternion(yaw))
         else:

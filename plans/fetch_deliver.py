@@ -378,7 +378,12 @@ async def deliver(
                 goal: Any = a.location(pose=to_base(spot))
                 if place_action is not None:
                     goal = place_action.current().get("target", goal)
-                placing = an.action(type="placing", object=object_designator, target=goal)
+                # no explicit pose: a costmap sample, whose identity orientation means
+                # nothing; the placing keeps the held yaw (see plans.pick_place)
+                free_yaw = "pose" not in targets_cursor.current
+                placing = an.action(
+                    type="placing", object=object_designator, target=goal, free_yaw=free_yaw
+                )
                 await perform(check_placing_collisions(placing))
 
             await cpl.with_failure_handling(
@@ -409,17 +414,22 @@ async def deliver(
             ],
         )
 
-    await cpl.with_failure_handling(
-        attempt,
-        [
-            (
-                (DesignatorError, ObjectUndeliverable),
-                lambda _f: retry_with_designator_solutions(
-                    targets_cursor, outer, rethrow=undeliverable()
-                ),
-            )
-        ],
-    )
+    async def body() -> None:
+        await cpl.with_failure_handling(
+            attempt,
+            [
+                (
+                    (DesignatorError, ObjectUndeliverable),
+                    lambda _f: retry_with_designator_solutions(
+                        targets_cursor, outer, rethrow=undeliverable()
+                    ),
+                )
+            ],
+        )
+
+    # CRAM: designator-error -> object-undeliverable (also one raised while advancing a
+    # target that has no solution at all, e.g. an empty costmap)
+    await translating_designator_errors(body, undeliverable)
 
 
 def _held_type(obj: ObjectDesignator) -> str:

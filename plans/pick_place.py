@@ -12,6 +12,19 @@ the target, reversed. Deliberate fix of CRAM HEAD's quirk (it always used the ty
 *first* grasp): the gripper-in-object transform is measured from the world model (the
 object in hand relative to the tool frame), so the object lands where the target says,
 whatever grasp picked it; the grounding names the grasp that transform is closest to.
+
+Target orientation, a deliberate difference from CRAM: the costmap placing locations
+carry no orientation (identity in map), and with the gripper-in-object transform kept from
+the pick an identity target means, e.g., that a cup side-grasped while the robot faced +x
+(the sink) must be approached from the far side of the island (the robot faces -x there):
+unreachable. So a ``placing`` with ``(free-yaw t)`` (``deliver`` sets it when its target
+location designator has no explicit ``pose``) orients the object upright with the yaw it
+has in ``base_footprint`` as held (map yaw = base yaw now + held yaw in base), then that
+yaw turned by pi/2, -pi/2 and pi (and by +-pi/4, +-3pi/4 for round types); an explicit
+target orientation is kept as given, followed by its yaw + pi variant (the same footprint
+for the box-shaped objects with fixed poses, e.g. the cereal). These variants are further
+solutions of the grounding, target-major; :func:`plans.checks.check_placing_collisions`
+probes them in order.
 """
 
 from __future__ import annotations
@@ -38,6 +51,7 @@ from executive import (
     knowledge,
     perform,
     rule,
+    yaw_quaternion,
 )
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
@@ -113,12 +127,22 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     except LookupError as exc:
         raise DesignatorError(f"{d.short()}: {exc}", d) from None
     transform = _object_transform(obj, d)
+    frames = [transform]
+    if otype in knowledge.ROTATIONALLY_SYMMETRIC:
+        # CRAM: bTo's rotation -> identity (the object as if facing the robot); then,
+        # deliberately, that frame turned by pi/2, -pi/2 and pi as further solutions
+        # (grasp-minor): the left arm has no IK for some top grasps in front of it
+        frames = []
+        for yaw in (0.0, math.pi / 2, -math.pi / 2, math.pi):
+            m = transform.matrix()
+            m[:3, :3] = Transform((0.0, 0.0, 0.0), yaw_quaternion(yaw)).matrix()[:3, :3]
+            frames.append(Transform.from_matrix(m, transform.frame, transform.child_frame))
     arms = (d["arm"],) if "arm" in d else knowledge.ARMS
     grasp_names = (d["grasp"],) if "grasp" in d else knowledge.grasps(otype)
     for arm in arms:
-        for grasp_name in grasp_names:
+        for grasp_name, frame in ((g, f) for g in grasp_names for f in frames):
             try:
-                poses = knowledge.grasp_poses(otype, grasp_name, transform)
+                poses = knowledge.grasp_poses(otype, grasp_name, frame)
             except LookupError as exc:
                 raise DesignatorError(f"{d.short()}: {exc}", d) from None
             yield (
@@ -171,6 +195,27 @@ def _closest_grasp(object_type: str, rotation: np.ndarray) -> knowledge.Grasp:
     return min(knowledge.object_knowledge(object_type).grasps, key=angle)
 
 
+#: Types whose yaw on the table does not matter (round): more placing yaws are tried.
+ROUND_TYPES = frozenset({"bowl", "cup", "plate"})
+
+
+def _yaw_variants(object_type: str, target: Pose, held: Pose, free_yaw: bool) -> list[Pose]:
+    """The target orientations a placing tries, in order (see the module docstring):
+    ``target`` in ``base_footprint``; ``held`` the object's pose in ``base_footprint``."""
+    if free_yaw:
+        offsets = [0.0, math.pi / 2, -math.pi / 2, math.pi]
+        if object_type in ROUND_TYPES:
+            offsets += [math.pi / 4, -math.pi / 4, 3 * math.pi / 4, -3 * math.pi / 4]
+        return [
+            Pose.from_xyz_yaw(*target.position, held.yaw + off, frame=target.frame)
+            for off in offsets
+        ]
+    turned = yaw_quaternion(math.pi)
+    flipped = Transform((0.0, 0.0, 0.0), turned).matrix() @ target.matrix()
+    flipped[:3, 3] = target.position
+    return [target, Transform.from_matrix(flipped, target.frame).to_pose()]
+
+
 def placing_waypoints(
     object_type: str, object_t_tool: Transform, target_in_base: Pose
 ) -> tuple[str, list[Pose]]:
@@ -201,6 +246,7 @@ def _placing(d: Designator) -> Iterator[Any]:
     if not held:
         raise DesignatorError(f"{d.short()}: the robot holds no such object", d)
     target = d.get("target")
+    free_yaw = bool(d.get("free-yaw", False))
     for arm, name in held:
         obj = given.current() if isinstance(given, ObjectDesignator) else an.object(name=name)
         otype = world.object_type(name)  # type: ignore[attr-defined]
@@ -215,20 +261,22 @@ def _placing(d: Designator) -> Iterator[Any]:
             targets = [target]
         else:
             raise DesignatorError(f"{d.short()}: target must be a location or a pose", d)
+        held_pose = world.object_pose(name, "base_footprint")
         for target_pose in targets:
-            grasp_name, poses = placing_waypoints(otype, object_t_tool, to_base(target_pose))
-            poses.reverse()
-            yield (
-                place,
-                {
-                    "object_designator": obj,
-                    "arm": arm,
-                    "reach_poses": tuple(poses[:2]),
-                    "put_poses": (poses[2],),
-                    "retract_poses": tuple(poses[3:]),
-                    "grasp": grasp_name,
-                },
-            )
+            for variant in _yaw_variants(otype, to_base(target_pose), held_pose, free_yaw):
+                grasp_name, poses = placing_waypoints(otype, object_t_tool, variant)
+                poses.reverse()
+                yield (
+                    place,
+                    {
+                        "object_designator": obj,
+                        "arm": arm,
+                        "reach_poses": tuple(poses[:2]),
+                        "put_poses": (poses[2],),
+                        "retract_poses": tuple(poses[3:]),
+                        "grasp": grasp_name,
+                    },
+                )
 
 
 async def release_held(object_designator: Any) -> None:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import abc
 import asyncio
+import itertools
 import math
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
@@ -59,6 +60,7 @@ from executive.failures import (
     PerceptionObjectNotFound,
     PtuGoalNotReached,
 )
+from executive.knowledge import ARM_JOINTS
 from projection._objects import object_type
 from projection._process_modules import PtuPM
 from projection._world import World
@@ -718,14 +720,23 @@ class RealArmsPM(RealProcessModule):
         goal_torso = world.torso_height
         world.move_torso(torso)
         world.move_joints(**{a: start[a] for a in arms})
-        delta = max((abs(g - s) for a in arms for g, s in zip(goal[a], start[a])), default=0.0)
-        duration = max(delta / ARM_JOINT_VELOCITY, abs(goal_torso - torso) / TORSO_VELOCITY)
+        # Cartesian waypoints are the plan's own path (a reach ends touching its target);
+        # only configuration moves (park, carry) are routed around free objects.
+        if command.command == "move-joints":
+            path = _arm_path(world, arms, start, goal)
+            world.move_joints(**{a: start[a] for a in arms})
+        else:
+            path = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
+        legs = [
+            max((abs(q - p) for a in arms for p, q in zip(u[a], v[a])), default=0.0)
+            for u, v in itertools.pairwise(path)
+        ]
+        total = sum(legs)
+        duration = max(total / ARM_JOINT_VELOCITY, abs(goal_torso - torso) / TORSO_VELOCITY)
 
         def pose_at(s: float) -> None:
             world.move_torso(torso + s * (goal_torso - torso))
-            world.move_joints(
-                **{a: [p + s * (q - p) for p, q in zip(start[a], goal[a])] for a in arms}
-            )
+            world.move_joints(**_along(path, legs, total, s))
 
         dropped: list[str] = []
         drop = self._armed_drop(arms)
@@ -759,6 +770,68 @@ class RealArmsPM(RealProcessModule):
                     del self.body.drops[arm]
                     return arm, name, fraction
         return None
+
+
+#: Samples per straight joint-space segment when checking an arm path for collisions.
+PATH_CHECK_SAMPLES = 12
+#: The raised-arm via configuration (shoulder lifted, elbow bent) the controller routes
+#: through when the straight path would hit a free object.
+RAISED_SHOULDER_LIFT = -0.45
+RAISED_ELBOW_FLEX = -1.9
+
+_ArmConfig = dict[str, tuple[float, ...]]
+
+
+def _path_hits(world: World, arms: Sequence[str], a: _ArmConfig, b: _ArmConfig) -> bool:
+    """Whether the straight joint-space segment a -> b makes an arm touch a free object
+    (one not attached to anything). Leaves the arms at ``b``."""
+    free = {n for n in world.objects if n not in world.attachments}
+    if not free:
+        return False
+    for k in range(1, PATH_CHECK_SAMPLES + 1):
+        f = k / PATH_CHECK_SAMPLES
+        world.move_joints(
+            **{arm: [p + f * (q - p) for p, q in zip(a[arm], b[arm])] for arm in arms}
+        )
+        if any(c.body_b in free for c in world.robot_collisions()):
+            return True
+    return False
+
+
+def _arm_path(
+    world: World, arms: Sequence[str], start: _ArmConfig, goal: _ArmConfig
+) -> list[_ArmConfig]:
+    """The joint-space path the simulated controller follows: straight when that touches
+    no free object, else through a raised-arm via configuration when that path is clear,
+    else straight anyway (the arm then pushes what it meets, as an arm without a planner
+    would). A real PR2 plans collision-free arm paths; projection teleports, so plans never
+    see this. Leaves the arms wherever the last check put them (the caller resets)."""
+    straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
+    if not _path_hits(world, arms, start, goal):
+        return straight
+    lift, elbow = ARM_JOINTS.index("shoulder_lift_joint"), ARM_JOINTS.index("elbow_flex_joint")
+    via: _ArmConfig = {}
+    for a in arms:
+        q = list(start[a])
+        q[lift], q[elbow] = RAISED_SHOULDER_LIFT, RAISED_ELBOW_FLEX
+        via[a] = tuple(q)
+    world.move_joints(**{a: start[a] for a in arms})
+    if _path_hits(world, arms, start, via) or _path_hits(world, arms, via, goal):
+        return straight
+    return [dict(straight[0]), via, dict(straight[1])]
+
+
+def _along(path: list[_ArmConfig], legs: list[float], total: float, s: float) -> _ArmConfig:
+    """The arm configuration at fraction ``s`` of a joint-space polyline."""
+    if total <= 0.0:
+        return path[-1]
+    d = s * total
+    for (u, v), leg in zip(itertools.pairwise(path), legs):
+        if d <= leg or v is path[-1]:
+            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
+            return {a: tuple(p + f * (q - p) for p, q in zip(u[a], v[a])) for a in u}
+        d -= leg
+    return path[-1]
 
 
 def real_process_modules(

@@ -177,6 +177,12 @@ def _angle(q1: Sequence[float], q2: Sequence[float]) -> float:
     return 2.0 * math.acos(min(1.0, dot))
 
 
+
+def _static_plane(client: int) -> int:
+    """A static, infinite ground plane at z = 0 in ``client``."""
+    shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=client)
+    return int(pb.createMultiBody(0, shape, physicsClientId=client))
+
 class World:
     """A PyBullet projection world (see the module docstring).
 
@@ -205,6 +211,10 @@ class World:
             str(ASSETS / "kitchen.urdf"), useFixedBase=True, physicsClientId=c
         )
         self._robot = pb.loadURDF(str(ASSETS / "pr2.urdf"), useFixedBase=True, physicsClientId=c)
+        # The floor: a static plane at z = 0, so that what falls lands somewhere. It is not
+        # part of the kitchen (costmaps treat kitchen links as obstacles); resting contact
+        # with the robot's base is within COLLISION_TOLERANCE and never counts.
+        self._floor = _static_plane(c)
         self._links: dict[str, tuple[int, int]] = {}
         self._kitchen_joints: dict[str, int] = {}
         self._robot_joints: dict[str, int] = {}
@@ -645,8 +655,11 @@ class World:
                 return self._link_names.get((body, index), str(index))
             return "object"
 
-        return Contact(self._bodies.get(q[1], str(q[1])), lname(q[1], q[3]),
-                       self._bodies.get(q[2], str(q[2])), lname(q[2], q[4]), float(q[8]))
+        def bname(body: int) -> str:
+            return "floor" if body == self._floor else self._bodies.get(body, str(body))
+
+        return Contact(bname(q[1]), lname(q[1], q[3]), bname(q[2]), lname(q[2], q[4]),
+                       float(q[8]))
 
     def robot_collisions(self, ignore: Iterable[str] = ()) -> list[Contact]:
         """Collisions of the robot, and of objects attached to robot links, with anything
@@ -1226,6 +1239,7 @@ class World:
             pb.setGravity(0, 0, -9.81, physicsClientId=self._side)
             self._side_kitchen = pb.loadURDF(str(ASSETS / "kitchen.urdf"), useFixedBase=True,
                                              physicsClientId=self._side)
+            _static_plane(self._side)
         return self._side
 
     def __iter__(self) -> Iterator[str]:

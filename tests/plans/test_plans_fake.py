@@ -343,7 +343,8 @@ def test_delivering_counts(cup_world):
     assert counts["deliver-targets"] == 2
     assert counts["relocations"] == 3 * 5
     assert counts["targets"] == 3 * 6 * 2
-    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3
+    # each placing check probes the 8 placing yaws of a round type (cup)
+    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3 * 8
 
 
 # --------------------------------------------------------------------- accessing/sealing

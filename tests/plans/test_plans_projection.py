@@ -69,19 +69,43 @@ def test_one_bowl_transport(mrun):
     assert on_island(world, "bowl-1") and world.attachments == {}
 
 
+def settled_moves(world, names, steps: int = 300) -> dict:
+    """How far (m) each object moves in ``steps`` more physics steps of the whole world."""
+    import pybullet as pb
+
+    before = {n: world.object_pose(n) for n in names}
+    for _ in range(steps):
+        pb.stepSimulation(physicsClientId=world.client)
+    return {n: world.object_pose(n).distance_to(p) for n, p in before.items()}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize(
+    "seed",
+    [
+        1,
+        2,
+        pytest.param(
+            3,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="the cereal's fixed CRAM placing pose lands on the spoon placed "
+                "beside the bowl, and tilts (moves ~2.3 cm when settling)",
+            ),
+        ),
+    ],
+)
 def test_table_setting(mrun, seed):
     world = projection.World(seed=seed)
     outcomes = run_projected(
         mrun, world, plans.table_setting, world, plans.demo.OBJECTS, True, seed
-    )
+    )  # mrun: no task alive, every transition legal
     assert list(outcomes) == list(plans.demo.OBJECTS)
+    failed = {t: o.failure for t, o in outcomes.items() if not o.success}
+    assert failed == {}
     for object_type, outcome in outcomes.items():
-        if outcome.success:
-            assert on_island(world, outcome.name), object_type
-    assert sum(o.success for o in outcomes.values()) >= 3
-    assert not [n for n, link in world.attachments.items() if not link.startswith("sink_area")]
+        assert on_island(world, outcome.name), object_type
+    assert world.attachments == {}  # nothing held, the spoon no longer in the drawer
     assert world.joint_position("sink_area_left_upper_drawer_main_joint") == pytest.approx(
         0, abs=1e-6
     )
@@ -89,3 +113,5 @@ def test_table_setting(mrun, seed):
         assert world.arm_joints(arm) == pytest.approx(
             knowledge.arm_configuration("park", arm), abs=1e-3
         )
+    moves = settled_moves(world, [o.name for o in outcomes.values()])
+    assert max(moves.values()) < 0.02, moves

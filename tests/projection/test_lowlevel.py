@@ -333,4 +333,4 @@ def test_contacts_helper(world: World) -> None:
     contacts = world.contacts("cup")
     assert contacts and contacts[0].body_b == "kitchen"
     assert contacts[0].link_b == "sink_area_surface"
-    assert pb.getNumBodies(physicsClientId=world.client) == 3
+    assert pb.getNumBodies(physicsClientId=world.client) == 4  # floor, kitchen, robot, cup

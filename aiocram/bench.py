@@ -1,0 +1,197 @@
+"""``aiocram bench``: run every benchmark in ``bench/`` and write ``BENCHMARKS.md``.
+
+Each benchmark runs in its own Python process (no shared caches, garbage or loops) and
+prints its figures beside a baseline measured in the same run, as ratios: these machines
+are noisy, so absolute numbers alone mean little. ``BENCHMARKS.md`` records the machine,
+the date, the command and every benchmark's output, and says how to reproduce it.
+
+The benchmarks live in the source tree (``bench/`` next to ``pyproject.toml``); run the
+command from a checkout (``pip install -e .``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+__all__ = ["BENCHMARKS", "add_parser", "run_benchmarks"]
+
+#: (script, arguments, what it measures), in report order.
+BENCHMARKS: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    (
+        "cpl_overhead.py",
+        (),
+        "cpl forms vs asyncio.TaskGroup, memory per task, wait_for "
+        "latency vs asyncio.Event, live-view cost",
+    ),
+    (
+        "executive_perform.py",
+        (),
+        "perform of a motion and of an action vs asyncio tasks; flatness over 10k performs",
+    ),
+    ("projection_ops.py", ("--reps", "1000"), "projection operations vs raw PyBullet"),
+    ("projection_costmaps.py", (), "costmap sampling and building vs numpy / rayTestBatch"),
+    ("projection_demo.py", ("--seeds", "5"), "bowl transport and five-object demo in projection"),
+    (
+        "real_robot_demo.py",
+        ("--seeds", "3"),
+        "projection-then-execute on the simulated real robot at maximum speed vs projection only",
+    ),
+)
+
+
+def _bench_dir() -> Path:
+    here = Path(__file__).resolve().parent.parent / "bench"
+    if not here.is_dir():
+        raise SystemExit(
+            "aiocram bench: the benchmarks live in the source tree's bench/ folder; run it "
+            "from a checkout installed with `pip install -e .`"
+        )
+    return here
+
+
+def _machine() -> dict[str, str]:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = ""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                mem = f"{int(line.split()[1]) / 1024 / 1024:.1f} GiB"
+                break
+    except OSError:
+        pass
+    import pybullet
+
+    return {
+        "cpu": cpu,
+        "cores": str(os.cpu_count()),
+        "memory": mem,
+        "os": platform.platform(),
+        "python": platform.python_version(),
+        "pybullet": str(getattr(pybullet, "__version__", "3.2.x")),
+    }
+
+
+def run_benchmarks(
+    names: list[str] | None = None, out: Path | None = None, quick: bool = False
+) -> list[dict[str, Any]]:
+    """Run the benchmarks (all, or those whose script name starts with one of ``names``);
+    print each one's output as it finishes; write the markdown report to ``out``."""
+    bench = _bench_dir()
+    selected = [b for b in BENCHMARKS if not names or any(b[0].startswith(n) for n in names)]
+    if not selected:
+        known = ", ".join(b[0] for b in BENCHMARKS)
+        raise ValueError(f"no benchmark matches {names}; known: {known}")
+    results = []
+    for script, args, what in selected:
+        if quick:
+            args = _quick_args(script)
+        cmd = [sys.executable, str(bench / script), *args]
+        print(f"== {script}: {what}", flush=True)
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        elapsed = time.perf_counter() - t0
+        text = proc.stdout.rstrip()
+        print(text, flush=True)
+        if proc.returncode != 0:
+            print(proc.stderr.rstrip()[-2000:], file=sys.stderr)
+        results.append(
+            {
+                "script": script,
+                "args": list(args),
+                "what": what,
+                "output": text,
+                "returncode": proc.returncode,
+                "seconds": elapsed,
+            }
+        )
+    if out is not None:
+        out.write_text(_markdown(results))
+        print(f"wrote {out}")
+    return results
+
+
+def _quick_args(script: str) -> tuple[str, ...]:
+    return {
+        "cpl_overhead.py": ("--sizes", "1000", "--repeat", "1", "--waiters", "1", "100"),
+        "projection_ops.py": ("--reps", "50"),
+        "projection_costmaps.py": ("--reps", "50"),
+        "projection_demo.py": ("--seeds", "1"),
+        "real_robot_demo.py": ("--seeds", "1"),
+    }.get(script, ())
+
+
+def _markdown(results: list[dict[str, Any]]) -> str:
+    m = _machine()
+    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [
+        "# Benchmarks",
+        "",
+        "Generated by `aiocram bench` (`python -m aiocram.bench` runs the same). Every",
+        "figure is printed beside a baseline measured in the same run, as a ratio; the",
+        "machines are noisy, so compare ratios rather than absolute times.",
+        "",
+        f"- date: {now}",
+        f"- machine: {m['cpu']}, {m['cores']} cores, {m['memory']}; {m['os']}",
+        f"- Python {m['python']}, pybullet {m['pybullet']}",
+        "",
+        "To reproduce: `pip install -e . && aiocram bench` (all, ~10 minutes), or",
+        "`aiocram bench cpl_overhead` for one; each script also runs alone:",
+        "`python bench/<script>.py --help`.",
+        "",
+    ]
+    for r in results:
+        args = " ".join(r["args"])
+        lines += [
+            f"## {r['script']}",
+            "",
+            f"{r['what']}. Command: `python bench/{r['script']}{' ' + args if args else ''}`"
+            f" ({r['seconds']:.0f} s{'' if r['returncode'] == 0 else ', FAILED'}).",
+            "",
+            "```",
+            r["output"],
+            "```",
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def add_parser(subparsers: Any) -> None:
+    p = subparsers.add_parser("bench", help="run the benchmarks and write BENCHMARKS.md")
+    p.add_argument("names", nargs="*", help="only these benchmarks (script name prefixes)")
+    p.add_argument("--out", default="BENCHMARKS.md", help="the report (default BENCHMARKS.md)")
+    p.add_argument("--no-report", action="store_true", help="print only, write no report")
+    p.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
+    p.set_defaults(handler=_command)
+
+
+def _command(args: argparse.Namespace) -> int:
+    try:
+        results = run_benchmarks(
+            args.names or None, None if args.no_report else Path(args.out), quick=args.quick
+        )
+    except ValueError as exc:
+        print(f"aiocram bench: {exc}", file=sys.stderr)
+        return 2
+    return 0 if all(r["returncode"] == 0 for r in results) else 1
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(prog="aiocram bench")
+    sub = parser.add_subparsers(dest="command")
+    add_parser(sub)
+    sys.exit(_command(parser.parse_args(["bench", *sys.argv[1:]])))
