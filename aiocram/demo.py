@@ -276,7 +276,6 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
         files.append(log)
     restore_logging = _route_plan_logs(config.out)
     true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
-    spawned: dict[str, Any] = {}
     outcomes: dict[str, Any] = {}
 
     async def main() -> dict[str, Any]:
@@ -294,6 +293,7 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
                         seed=config.seed,
                         projection_reasoning=config.projection,
                         projection_runs=config.runs,
+                        spawn=False,
                     )
             else:
                 result = await table_setting(
@@ -303,19 +303,13 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
                     seed=config.seed,
                     projection_reasoning=config.projection,
                     projection_runs=config.runs,
+                    spawn=False,
                 )
         return dict(result)
 
     t0 = time.perf_counter()
     try:
-        original_spawn = true_world.spawn_object
-
-        def recording_spawn(name: str, otype: str, pose: Any) -> Any:
-            out = original_spawn(name, otype, pose)
-            spawned[name] = true_world.object_pose(name)
-            return out
-
-        true_world.spawn_object = recording_spawn  # type: ignore[method-assign]
+        spawned = _set_up_scene(true_world, config)
         root_box: list[cpl.Task] = []
 
         class _Root(cpl.Instrument):
@@ -342,6 +336,22 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
         restore_logging()
         true_world.close()
         belief_world.close()
+
+
+def _set_up_scene(true_world: Any, config: DemoConfig) -> dict[str, Any]:
+    """Spawn the demo objects in the true world, sampling their poses with location rules
+    bound to the true world (so spawns are collision-free with each other), and let them
+    come to rest. The robot's belief knows none of this: it learns by perceiving."""
+    from plans.demo import spawn_scene
+    from projection import settle, with_projected_robot
+
+    async def set_up() -> dict[str, Any]:
+        async with with_projected_robot(true_world):
+            return spawn_scene(true_world, config.objects, random=True, seed=config.seed)
+
+    spawned: dict[str, Any] = cpl.run(set_up, name="scene-setup")
+    settle(true_world, 240)
+    return {name: true_world.object_pose(name) for name in spawned}
 
 
 def _route_plan_logs(out: Path | None) -> Callable[[], None]:

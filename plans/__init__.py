@@ -12,7 +12,7 @@ from .checks import (
     check_placing_collisions,
     check_placing_pose_stability,
 )
-from .demo import ObjectOutcome, table_setting
+from .demo import ObjectOutcome, spawn_scene, table_setting
 from .reasoning import (
     ProjectedParameters,
     pick_best_parameters_by_distance,
@@ -35,6 +35,7 @@ __all__ = [
     "pick_best_parameters_by_distance",
     "pick_place",
     "retry_ledger",
+    "spawn_scene",
     "table_setting",
     "with_projected_task_tree",
 ]

@@ -194,6 +194,21 @@ def _reachable_sample(location: LocationDesignator, accept: Any, tries: int = 30
     return sample  # type: ignore[no-any-return]
 
 
+def spawn_scene(
+    world: Any, objects: Sequence[str] = OBJECTS, random: bool = True, seed: int | None = None
+) -> dict[str, Pose]:
+    """Spawn ``<type>-1`` for each object type on ``world`` (CRAM's demo setup): with
+    ``random``, sampled from the object's spawning region (see :func:`_spawn_location`),
+    collision-free with the objects spawned before it; otherwise CRAM's fixed poses. The
+    spoon goes into the drawer. Location designators resolve in the *current*
+    environment, so call it in one whose location rules are bound to ``world`` (e.g.
+    ``with_projected_robot(world)``); a robot whose belief does not know the objects yet
+    (the simulated real robot) must set up its true world that way first. Returns the
+    spawn pose of each object, by name."""
+    _spawn(world, objects, random, np.random.default_rng(seed))
+    return {f"{t}-1": world.object_pose(f"{t}-1") for t in objects}
+
+
 def _spawn(world: Any, objects: Sequence[str], random: bool, rng: np.random.Generator) -> None:
     for object_type in objects:
         name = f"{object_type}-1"
@@ -248,8 +263,13 @@ async def table_setting(
     *,
     projection_reasoning: bool = True,
     projection_runs: int = 3,
+    spawn: bool = True,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
+
+    With ``spawn`` (the default) the objects are first spawned as :func:`spawn_scene`
+    does; pass ``spawn=False`` when the scene was set up already (the simulated real
+    robot's true world is set up before the robot, whose belief starts empty, is started).
 
     Each transport imagines fetch-and-deliver ``projection_runs`` times before acting when
     ``projection_reasoning`` is on and the environment can imagine (the simulated real
@@ -261,8 +281,8 @@ async def table_setting(
     as ``ObjectUndeliverable``). Low-level failures that escape the plans
     and evaporation propagate (a drawer opened for the spoon is still closed: see
     ``transport``). Returns ``{type: outcome}`` in ``objects`` order."""
-    rng = np.random.default_rng(seed)
-    _spawn(world, objects, random, rng)
+    if spawn:
+        _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
     outcomes: dict[str, ObjectOutcome] = {}
     driven = [0.0]

@@ -331,6 +331,35 @@ def _fetching(d: Designator) -> Iterator[Any]:
 
 
 # ---------------------------------------------------------------------------- delivering
+def _injected_spot(
+    place_action: Designator | None, robot_location: LocationDesignator | None
+) -> Pose | None:
+    """The map pose of an injected (projected) place action's target.
+
+    CRAM reuses the projected placing target as it is, a pose in ``base_footprint``
+    computed where the imagined robot stood. Deliberate difference: we anchor it in the
+    map through that imagined base pose (the injected robot location), so that a real
+    robot that stopped elsewhere still puts the object where projection meant it, and its
+    own checks (IK, collisions, stability) judge it from where it really is."""
+    if place_action is None:
+        return None
+    goal = place_action.current().get("target")
+    if goal is None:
+        return None
+    pose = goal.reference() if isinstance(goal, LocationDesignator) else goal
+    if not isinstance(pose, Pose):
+        return None
+    if pose.frame == "map":
+        return pose
+    if robot_location is None:
+        return to_map(pose)
+    base: Pose = robot_location.reference()
+    if base.frame != "map":
+        base = to_map(base)
+    spot: Pose = base.to_transform("base_footprint") * pose
+    return spot
+
+
 @cpl.plan(name="deliver")
 async def deliver(
     object_designator: ObjectDesignator,
@@ -353,6 +382,7 @@ async def deliver(
     targets_cursor = SolutionCursor(target)
     outer = CountedRetries(2, "deliver-targets")
     object_type = _held_type(object_designator)
+    injected_spot = _injected_spot(place_action, robot_location)
 
     def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
         return ObjectUndeliverable(object=object_label(object_designator))
@@ -376,8 +406,8 @@ async def deliver(
                 await perform(an.action(type="turning-towards", target=targets_cursor.current))
                 check_placing_pose_stability(object_type, spot)
                 goal: Any = a.location(pose=to_base(spot))
-                if place_action is not None:
-                    goal = place_action.current().get("target", goal)
+                if injected_spot is not None:
+                    goal = a.location(pose=to_base(injected_spot))
                 # no explicit pose: a costmap sample, whose identity orientation means
                 # nothing; the placing keeps the held yaw (see plans.pick_place)
                 free_yaw = "pose" not in targets_cursor.current

@@ -38,6 +38,7 @@ _EXPORTS = MappingProxyType(
         "RealWorldModel": "projection._real_robot",
         "make_world_pair": "projection._real_robot",
         "real_robot_clock": "projection._real_robot",
+        "settle": "projection._real_robot",
         "with_real_robot": "projection._real_robot",
         "render": "projection.render",
     }
@@ -52,6 +53,7 @@ __all__ = [
     "make_world_pair",
     "real_robot_clock",
     "render",
+    "settle",
     "with_projected_robot",
     "with_real_robot",
 ]
@@ -65,6 +67,7 @@ if TYPE_CHECKING:
         RealWorldModel,
         make_world_pair,
         real_robot_clock,
+        settle,
         with_real_robot,
     )
     from projection._world import World

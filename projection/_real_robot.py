@@ -447,10 +447,15 @@ class RealProcessModule(ProcessModule):
 
 
 class RealNavigationPM(RealProcessModule):
-    """``going``: drive straight to the pose while turning, at most :data:`BASE_VELOCITY`
-    (or the motion's ``speed``, if lower) and :data:`BASE_ANGULAR_VELOCITY`. A collision on
-    the way, or a navigation fault, stops the robot at its last pose and raises
-    :class:`executive.NavigationGoalNotReached` (``location=goal``)."""
+    """``going``: follow a base path to the pose at most :data:`BASE_VELOCITY` (or the
+    motion's ``speed``, if lower) and :data:`BASE_ANGULAR_VELOCITY`.
+
+    The base's local planner (:func:`_base_path`) picks the first of a few candidate paths
+    (straight while turning; turn, then drive; drive, then turn; face the travel
+    direction; a dog-leg through the midpoint) that is collision-free in the true world;
+    if none is, it drives straight. A collision on the way, or a navigation fault, stops
+    the robot at its last pose and raises :class:`executive.NavigationGoalNotReached`
+    (``location=goal``)."""
 
     motion_types = frozenset({"going"})
     commands = frozenset({"move-base"})
@@ -466,19 +471,25 @@ class RealNavigationPM(RealProcessModule):
             goal = start.to_transform("base_footprint") * goal
         elif goal.frame != "map":
             raise ValueError(f"unsupported frame {goal.frame!r}; known: map, base_footprint")
-        x0, y0, yaw0 = start.position[0], start.position[1], start.yaw
-        dx, dy = goal.position[0] - x0, goal.position[1] - y0
-        dyaw = _wrap(goal.yaw - yaw0)
         speed = command.arguments.get("speed")
         v = min(BASE_VELOCITY, speed) if speed is not None and speed > 0 else BASE_VELOCITY
-        duration = max(math.hypot(dx, dy) / v, abs(dyaw) / BASE_ANGULAR_VELOCITY)
+        path = _base_path(world, start, goal)
+        legs = [
+            max(
+                math.hypot(b[0] - a[0], b[1] - a[1]) / v,
+                abs(_wrap(b[2] - a[2])) / BASE_ANGULAR_VELOCITY,
+            )
+            for a, b in itertools.pairwise(path)
+        ]
+        duration = sum(legs)
         blocked: list[BaseException] = []
 
         def pose_at(s: float) -> None:
             if blocked:
                 return
+            x, y, yaw = _along_base(path, legs, s)
             try:
-                world.drive(Pose.from_xyz_yaw(x0 + s * dx, y0 + s * dy, 0.0, yaw0 + s * dyaw))
+                world.drive(Pose.from_xyz_yaw(x, y, 0.0, yaw))
             except NavigationPoseUnreachable as exc:
                 blocked.append(exc)
 
@@ -720,23 +731,28 @@ class RealArmsPM(RealProcessModule):
         goal_torso = world.torso_height
         world.move_torso(torso)
         world.move_joints(**{a: start[a] for a in arms})
-        # Cartesian waypoints are the plan's own path (a reach ends touching its target);
-        # only configuration moves (park, carry) are routed around free objects.
-        if command.command == "move-joints":
-            path = _arm_path(world, arms, start, goal)
-            world.move_joints(**{a: start[a] for a in arms})
+        first: _Config = (torso, {a: start[a] for a in arms})
+        last: _Config = (goal_torso, goal)
+        if command.command == "move-tcp":
+            # The plan's waypoints assume the tool moves straight between them (a reach
+            # approaches its object along the grasp axis): follow that line.
+            path = _cartesian_path(world, arms, args, first, last)
         else:
-            path = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
-        legs = [
-            max((abs(q - p) for a in arms for p, q in zip(u[a], v[a])), default=0.0)
-            for u, v in itertools.pairwise(path)
-        ]
-        total = sum(legs)
-        duration = max(total / ARM_JOINT_VELOCITY, abs(goal_torso - torso) / TORSO_VELOCITY)
+            # Configuration moves (park, carry) are routed around free objects.
+            joints = _arm_path(world, arms, start, goal)
+            path = [
+                (torso + (goal_torso - torso) * i / max(1, len(joints) - 1), c)
+                for i, c in enumerate(joints)
+            ]
+        world.move_torso(torso)
+        world.move_joints(**{a: start[a] for a in arms})
+        legs = [_leg_seconds(u, v) for u, v in itertools.pairwise(path)]
+        duration = sum(legs)
 
         def pose_at(s: float) -> None:
-            world.move_torso(torso + s * (goal_torso - torso))
-            world.move_joints(**_along(path, legs, total, s))
+            t, config = _along_configs(path, legs, s)
+            world.move_torso(t)
+            world.move_joints(**config)
 
         dropped: list[str] = []
         drop = self._armed_drop(arms)
@@ -770,6 +786,151 @@ class RealArmsPM(RealProcessModule):
                     del self.body.drops[arm]
                     return arm, name, fraction
         return None
+
+
+_BasePose = tuple[float, float, float]
+#: Spacing (m, rad) of the collision probes along a candidate base path.
+BASE_PATH_STEP = (0.05, 0.1)
+
+
+def _base_candidates(a: _BasePose, b: _BasePose) -> list[list[_BasePose]]:
+    """Candidate base paths from ``a`` to ``b`` (x, y, yaw), most direct first."""
+    (x0, y0, t0), (x1, y1, t1) = a, b
+    heading = math.atan2(y1 - y0, x1 - x0) if math.hypot(x1 - x0, y1 - y0) > 1e-6 else t0
+    xm = (x0 + x1) / 2.0
+    return [
+        [a, b],
+        [a, (x0, y0, t1), b],
+        [a, (x1, y1, t0), b],
+        [a, (x0, y0, heading), (x1, y1, heading), b],
+        [a, (xm, y0, t0), (xm, y1, t1), b],
+        [a, (x0, y0, t1), (xm, y0, t1), (xm, y1, t1), b],
+    ]
+
+
+def _path_free(world: World, path: list[_BasePose]) -> bool:
+    """Whether the robot (with what it holds) stays collision-free along ``path``; the
+    world is left exactly as it was."""
+    snap = world.snapshot()
+    try:
+        for (x0, y0, t0), (x1, y1, t1) in itertools.pairwise(path):
+            dyaw = _wrap(t1 - t0)
+            n = max(
+                1,
+                math.ceil(math.hypot(x1 - x0, y1 - y0) / BASE_PATH_STEP[0]),
+                math.ceil(abs(dyaw) / BASE_PATH_STEP[1]),
+            )
+            for k in range(1, n + 1):
+                f = k / n
+                try:
+                    world.drive(
+                        Pose.from_xyz_yaw(
+                            x0 + f * (x1 - x0), y0 + f * (y1 - y0), 0.0, t0 + f * dyaw
+                        )
+                    )
+                except NavigationPoseUnreachable:
+                    return False
+        return True
+    finally:
+        world.restore(snap)
+
+
+def _base_path(world: World, start: Pose, goal: Pose) -> list[_BasePose]:
+    """The base path the simulated robot's local planner follows: the first collision-free
+    candidate of :func:`_base_candidates`, else the straight one (which then stops at the
+    obstacle, as a blocked robot does)."""
+    a = (start.position[0], start.position[1], start.yaw)
+    b = (goal.position[0], goal.position[1], goal.yaw)
+    candidates = _base_candidates(a, b)
+    for path in candidates:
+        if _path_free(world, path):
+            return path
+    return candidates[0]
+
+
+def _along_base(path: list[_BasePose], legs: list[float], s: float) -> _BasePose:
+    """The base pose at fraction ``s`` of the path's duration (legs in seconds)."""
+    total = sum(legs)
+    if total <= 0.0:
+        return path[-1]
+    d = s * total
+    for (p, q), leg in zip(itertools.pairwise(path), legs):
+        if d <= leg or q is path[-1]:
+            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
+            return (
+                p[0] + f * (q[0] - p[0]),
+                p[1] + f * (q[1] - p[1]),
+                p[2] + f * _wrap(q[2] - p[2]),
+            )
+        d -= leg
+    return path[-1]
+
+
+_Config = tuple[float, dict[str, tuple[float, ...]]]  # torso height, arm joints by arm
+#: Spacing (m, rad) of the tool-frame waypoints of a Cartesian arm motion.
+CARTESIAN_STEP = (0.02, 0.1)
+_TOOL = {"left": "l_gripper_tool_frame", "right": "r_gripper_tool_frame"}
+
+
+def _leg_seconds(u: _Config, v: _Config) -> float:
+    joints = max((abs(q - p) for a in u[1] for p, q in zip(u[1][a], v[1][a])), default=0.0)
+    return max(joints / ARM_JOINT_VELOCITY, abs(v[0] - u[0]) / TORSO_VELOCITY)
+
+
+def _along_configs(path: list[_Config], legs: list[float], s: float) -> _Config:
+    """The configuration at fraction ``s`` of a configuration path's duration."""
+    total = sum(legs)
+    if total <= 0.0:
+        return path[-1]
+    d = s * total
+    for (u, v), leg in zip(itertools.pairwise(path), legs):
+        if d <= leg or v is path[-1]:
+            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
+            return (
+                u[0] + f * (v[0] - u[0]),
+                {a: tuple(p + f * (q - p) for p, q in zip(u[1][a], v[1][a])) for a in u[1]},
+            )
+        d -= leg
+    return path[-1]
+
+
+def _cartesian_path(
+    world: World, arms: Sequence[str], goals: Mapping[str, Any], first: _Config, last: _Config
+) -> list[_Config]:
+    """Configurations that move each tool frame along the straight line (position) and
+    the shortest rotation (orientation) to its goal, by IK at small steps seeded with the
+    previous step's solution. If an intermediate step has no IK solution, the path is
+    the straight joint-space one. Leaves the robot wherever the last step put it."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    robot = world.robot_pose().to_transform("base_footprint")
+    lines = {}
+    steps = 1
+    for a in arms:
+        start = world.link_pose(_TOOL[a])
+        goal: Pose = goals[a]
+        if goal.frame == "base_footprint":
+            goal = robot * goal
+        rots = Rotation.from_quat([start.orientation, goal.orientation])
+        lines[a] = (np.array(start.position), np.array(goal.position), Slerp([0.0, 1.0], rots))
+        steps = max(
+            steps,
+            math.ceil(start.distance_to(goal) / CARTESIAN_STEP[0]),
+            math.ceil(start.angle_to(goal) / CARTESIAN_STEP[1]),
+        )
+    path: list[_Config] = [first]
+    for k in range(1, steps):
+        f = k / steps
+        targets = {
+            a: Pose(p + f * (g - p), sl([f]).as_quat()[0], "map") for a, (p, g, sl) in lines.items()
+        }
+        try:
+            world.move_tcp(**targets)
+        except ManipulationPoseUnreachable:
+            return [first, last]
+        path.append((world.torso_height, {a: world.arm_joints(a) for a in arms}))
+    path.append(last)
+    return path
 
 
 #: Samples per straight joint-space segment when checking an arm path for collisions.
@@ -1044,10 +1205,14 @@ async def with_real_robot(
 
 
 # ----------------------------------------------------------------------- world pairs
-def _settle(world: World, steps: int) -> None:
-    """Step the world's physics ``steps`` times with the robot and attached objects held."""
+def settle(world: World, steps: int = 100) -> None:
+    """Step the world's physics ``steps`` times (1/240 s each) with the robot and attached
+    objects held, so that freshly spawned objects come to rest."""
     body = _Body(world, world, FaultProfile.none())
     body._simulate(steps)
+
+
+_settle = settle
 
 
 def make_world_pair(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 from collections.abc import AsyncIterator, Iterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -216,7 +217,29 @@ def test_the_real_run_uses_the_cheapest_imagined_base_poses():
     (_, delivering), *_ = performed(real_run, "delivering")
     assert delivering.get("place-action") is chosen.place_action
     (_, placing), *_ = performed(real_run, "placing")
-    assert placing.get("target") is chosen.place_action.get("target")
+    # the robot stands where projection put it, so the re-anchored target is the same pose
+    injected = chosen.place_action.get("target").reference()
+    assert placing.get("target").reference().isclose(injected, 1e-9, 1e-9)
+
+
+def test_injected_placing_target_is_anchored_in_the_map():
+    """A real robot that stopped short of the projected base pose still places the object
+    where projection meant it (in the map), not at the same offset from where it stands."""
+    from executive import Pose
+    from plans.fetch_deliver import _injected_spot
+
+    projected_base = Pose.from_xyz_yaw(-0.2, 1.5, 0.0, math.pi)
+    target = Pose((0.55, 0.1, 0.85), frame="base_footprint")
+    place = an.action(type="placing", target=a.location(pose=target))
+    spot = _injected_spot(place, a.location(pose=projected_base))
+    assert spot.frame == "map"
+    assert spot.position == pytest.approx((-0.75, 1.4, 0.85))
+    assert _injected_spot(None, a.location(pose=projected_base)) is None
+    map_target = Pose((-0.8, 1.2, 0.9))
+    assert (
+        _injected_spot(an.action(type="placing", target=a.location(pose=map_target)), None)
+        == map_target
+    )
 
 
 def test_imagined_runs_leave_the_belief_world_unchanged():
