@@ -12,6 +12,10 @@ time, and the invariants that must hold in every run (no task alive after the ru
 object lost or left attached, the drawer closed, the arms parked). Results go to
 ``OUT/campaign.json`` and PNG plots (success rate and distance against fault rate, with and
 without projection).
+
+Exit status: 0 when every invariant held in every run, 1 when some run violated one (the
+violations are in the report), 2 for bad arguments, 3 when the harness itself crashed in
+some run.
 """
 
 from __future__ import annotations
@@ -347,6 +351,11 @@ def _command(args: argparse.Namespace) -> int:
     plots = _plot(summary, out)
     _print_summary(summary)
     print(f"wrote {out / 'campaign.json'} and {', '.join(str(p) for p in plots)}")
+    errors = sum(1 for r in results if "error" in r)
+    if errors:
+        print(f"{errors} runs crashed in the harness (see 'error' in campaign.json)",
+              file=sys.stderr)
+        return 3
     violated = sum(len(r["invariant_violations"]) for r in summary["rows"])
     return 1 if violated else 0
 

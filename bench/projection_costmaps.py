@@ -11,35 +11,15 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import time
-from collections.abc import Callable
 
 import numpy as np
 import pybullet as pb
+from _timing import median_us, row
 
 import executive
 from executive import Pose, a, an
 from projection import World
 from projection._locations import LocationCostmaps
-
-
-def median_us(fn: Callable[[], object], reps: int) -> float:
-    for _ in range(min(5, reps)):
-        fn()
-    samples = []
-    for _ in range(reps):
-        t0 = time.perf_counter_ns()
-        fn()
-        samples.append(time.perf_counter_ns() - t0)
-    samples.sort()
-    return samples[len(samples) // 2] / 1000.0
-
-
-def row(name: str, ours: float, base_name: str, base: float, target: str) -> None:
-    print(
-        f"{name:<34} {ours:>10.1f} µs | {base_name:<34} {base:>10.1f} µs | "
-        f"ratio {ours / base:6.2f}x  ({target})"
-    )
 
 
 async def run(reps: int) -> None:

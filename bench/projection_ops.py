@@ -8,35 +8,15 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
-from collections.abc import Callable
 
 import pybullet as pb
+from _timing import median_us, row
 
 from executive import knowledge
 from executive._pose import Pose
 from projection import World
 from projection._world import DEFAULT_TORSO
 from projection._world_model import ProjectedWorldModel
-
-
-def median_us(fn: Callable[[], object], reps: int) -> float:
-    for _ in range(min(20, reps)):
-        fn()
-    samples = []
-    for _ in range(reps):
-        t0 = time.perf_counter_ns()
-        fn()
-        samples.append(time.perf_counter_ns() - t0)
-    samples.sort()
-    return samples[len(samples) // 2] / 1000.0
-
-
-def row(name: str, ours: float, base_name: str, base: float, target: str) -> None:
-    print(
-        f"{name:<34} {ours:>10.1f} µs | {base_name:<40} {base:>10.1f} µs | "
-        f"ratio {ours / base:6.2f}x  ({target})"
-    )
 
 
 def main() -> None:

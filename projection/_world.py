@@ -132,6 +132,24 @@ class Snapshot:
     objects: tuple[tuple[str, str, _Vec, _Quat, _Vec, _Vec], ...]
     attachments: tuple[tuple[str, str, _Tf], ...]
 
+    def isclose(self, other: Snapshot, tol: float = 1e-9) -> bool:
+        """The same state up to float rounding (PyBullet renormalises quaternions, so a
+        restored state can differ from the saved one by ~1e-17): names, types and links
+        equal, every number within ``tol``."""
+        a, b = _flat(self), _flat(other)
+        return len(a) == len(b) and all(
+            x == y if isinstance(x, str) or isinstance(y, str) else abs(x - y) <= tol
+            for x, y in zip(a, b)
+        )
+
+
+def _flat(x: Any) -> list[Any]:
+    if isinstance(x, Snapshot):
+        return _flat([x.base, x.robot_joints, x.kitchen_joints, x.objects, x.attachments])
+    if isinstance(x, (tuple, list)):
+        return [v for item in x for v in _flat(item)]
+    return [x]
+
 
 @dataclass
 class _Obj:

@@ -94,3 +94,31 @@ def test_campaign_rejects_bad_fault_rates(tmp_path, capsys):
 def test_bench_quick_smoke(capsys):
     assert main(["bench", "executive_perform", "--quick", "--no-report"]) == 0
     assert "flatness" in capsys.readouterr().out
+
+
+def test_campaign_reports_harness_crashes(tmp_path, monkeypatch, capsys):
+    import aiocram.demo
+
+    def broken(**kwargs):
+        raise RuntimeError("the simulator is on fire")
+
+    monkeypatch.setattr(aiocram.demo, "run_demo_once", broken)
+    out = tmp_path / "crash"
+    code = main(
+        [
+            "campaign",
+            "--seeds",
+            "1",
+            "--faults",
+            "0",
+            "--workers",
+            "1",
+            "--no-projection",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 3
+    runs = json.loads((out / "campaign.json").read_text())["runs"]
+    assert runs[0]["error"] == "RuntimeError: the simulator is on fire"
+    assert "crashed in the harness" in capsys.readouterr().err
