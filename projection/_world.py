@@ -286,6 +286,8 @@ class World:
             self._ik_damping[arm] = damping
         mirrored = tuple((-a, b, -r, e, -f, w, -x) for a, b, r, e, f, w, x in _IK_SEEDS)
         self._ik_seeds = {"left": _IK_SEEDS, "right": mirrored}
+        #: tool-frame positions of the seeds in the torso frame (filled on first IK)
+        self._seed_tools: dict[str, list[tuple[float, ...]]] = {}
         #: bound of the per-world IK memo (0 disables it); see :meth:`move_tcp`
         self.ik_cache_size: int = IK_CACHE_SIZE
         self.ik_cache_stats: dict[str, int] = {"hits": 0, "misses": 0}
@@ -922,6 +924,42 @@ class World:
                             physicsClientId=self._c)
         return math.dist(s[4], pos) < 0.01 and _angle(s[5], orn) < 0.1
 
+    def _seed_order(self, arm: str, pos: Sequence[float], start: tuple[float, ...]) -> list[
+        tuple[float, ...]
+    ]:
+        """IK seeds for a goal at ``pos`` (map), nearest first: the arm's current joints
+        and the seed library, ordered by how far each one's tool frame (in the torso frame,
+        so independent of base pose and torso height) is from the goal. A nearby start
+        (consecutive waypoints) stays first; a distant goal starts from the library seed
+        whose hand is already near it, instead of from wherever the arm happens to be."""
+        library = self._seed_tools.get(arm)
+        indices = self._arm_joints[arm]
+        tool = self._tool[arm]
+        torso = self._links["torso_lift_link"]
+        if library is None:
+            library = []
+            for seed in self._ik_seeds[arm]:
+                self._set_joints(indices, seed)
+                library.append(self._in_torso(self._link_tf(self._robot, tool)[0], torso))
+            self._set_joints(indices, start)
+            self._seed_tools[arm] = library
+        self._set_joints(indices, start)
+        goal = self._in_torso(pos, torso)
+        here = self._in_torso(self._link_tf(self._robot, tool)[0], torso)
+        ranked = sorted(
+            [(math.dist(here, goal), -1, start)]
+            + [(math.dist(t, goal), i, s) for i, (t, s) in enumerate(
+                zip(library, self._ik_seeds[arm]))],
+            key=lambda e: (e[0], e[1]),
+        )
+        return [seed for _, _, seed in ranked]
+
+    def _in_torso(self, point: Sequence[float], torso: tuple[int, int]) -> tuple[float, ...]:
+        tp, tq = self._link_tf(*torso)
+        ip, iq = pb.invertTransform(tp, tq)
+        local, _ = pb.multiplyTransforms(ip, iq, point, (0.0, 0.0, 0.0, 1.0))
+        return tuple(local)
+
     def clear_ik_cache(self) -> None:
         """Forget every memoised IK result of this world (see :meth:`move_tcp`)."""
         self._ik_cache.clear()
@@ -938,7 +976,7 @@ class World:
         slots = self._arm_slots[arm]
         limits = [self._limits[i] for i in indices]
         start = tuple(saved[k] for k in slots)
-        seeds = [start, *self._ik_seeds[arm]]
+        seeds = self._seed_order(arm, pos, start)
         for seed in seeds:
             self._set_joints(indices, seed)
             sol = pb.calculateInverseKinematics(
