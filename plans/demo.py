@@ -75,6 +75,12 @@ FIXED_POSES: Mapping[str, Pose] = {
 #: origins are body centres (0.95 put the box 4.5 cm into the counter, and it was pushed
 #: up on release). The yaw is CRAM's (turning it by -pi/2 was tried and delivered less).
 CEREAL_TARGET = Pose((-0.78, 0.8, 0.85 + 0.29 / 2), (0.0, 0.0, 0.6, 0.4))
+#: Fallbacks for :data:`CEREAL_TARGET` (deliberate addition): the same pose moved along the
+#: island (+y, away from the place setting). CRAM's fixed pose can overlap the bowl placed
+#: before it (the stability check sees neighbouring objects, see
+#: ``ProjectedWorldModel.probe_placing_stability``), and a single pose left ``deliver``
+#: nothing to retry with but dropping the box at the sink.
+CEREAL_FALLBACK_OFFSETS = (0.25, 0.45, 0.65)
 
 
 @dataclass
@@ -126,7 +132,9 @@ def place_location(object_type: str) -> LocationDesignator:
         )
     if object_type == "milk":
         return a.location(left_of=bowl, far_from=bowl, on=ISLAND, for_=an.object(type="milk"))
-    return a.location(pose=CEREAL_TARGET)
+    x, y, z = CEREAL_TARGET.position
+    fallbacks = [Pose((x, y + dy, z), CEREAL_TARGET.orientation) for dy in CEREAL_FALLBACK_OFFSETS]
+    return a.location(*(("pose", p) for p in (CEREAL_TARGET, *fallbacks)))
 
 
 def _spawn_location(object_type: str) -> LocationDesignator:

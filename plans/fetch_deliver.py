@@ -150,7 +150,12 @@ async def turn_towards(target: LocationDesignator) -> None:
         if turns.do_retry():
             base = _turned_base(target.current().reference())
             await perform(an.action(type="navigating", location=a.location(pose=base)))
-            await perform(an.action(type="looking", direction="forward"))
+            # deliberate: a ptu failure of this look forward is ignored (in CRAM it escaped
+            # the handler as a low-level failure and ended the whole transport); the retry
+            # looks at the target again anyway
+            await perform_ignoring(
+                an.action(type="looking", direction="forward"), PtuLowLevelFailure
+            )
             cpl.retry()
         raise LookingHighLevelFailure(f"cannot look at {target.short()}") from failure
 
@@ -487,19 +492,50 @@ def _delivering(d: Designator) -> Iterator[Any]:
 #: CRAM's hard-coded drop-at-sink poses: the base in map, the object in base_footprint.
 SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
 SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
+#: The counter the object is put down on at the sink, and the gap (m) left below it.
+SINK_SURFACE = "sink_area_surface"
+SINK_DROP_CLEARANCE = 0.01
+
+
+def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
+    """Where ``drop-at-sink`` puts the object, in ``base_footprint`` at
+    :data:`SINK_BASE_POSE`: CRAM's x and y, but (deliberate deviation) the height at which
+    the held object's bottom is :data:`SINK_DROP_CLEARANCE` above the sink counter's top,
+    from the world model's ``link_aabb`` and ``object_aabb`` (CRAM released it 1.2 m above
+    the floor, 0.35 m above our counter: a bowl or cup bounced and rolled off the
+    counter's front edge onto the floor). A world model without those: CRAM's pose."""
+    world = current_environment().world
+    link_aabb = getattr(world, "link_aabb", None)
+    object_aabb = getattr(world, "object_aabb", None)
+    name = object_designator.current().get("name")
+    if link_aabb is None or object_aabb is None or not isinstance(name, str):
+        return SINK_DROP_POSE
+    try:
+        top = link_aabb(SINK_SURFACE)[1][2]
+        lo, hi = object_aabb(name)
+    except LookupError:
+        return SINK_DROP_POSE
+    half = (hi[2] - lo[2]) / 2.0
+    x, y, _z = SINK_DROP_POSE.position
+    return Pose((x, y, top + half + SINK_DROP_CLEARANCE), frame="base_footprint")
 
 
 async def drop_at_sink(object_designator: ObjectDesignator) -> None:
     """Go to CRAM's fixed pose at the sink and place the object there; every failure is
-    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded poses). Deliberate
-    addition: a shielded cleanup releases the object if it is still in a hand (the
+    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded base pose and x, y).
+    Deliberate deviations: the object is put down *on* the sink counter rather than
+    released 0.35 m above it (:func:`_sink_drop_pose`), keeping the yaw it is held with
+    (``free-yaw``: the drop's orientation means nothing, and the held yaw needs no turn of
+    the wrist); and a shielded cleanup releases the object if it is still in a hand (the
     placing failed, or the drop was evaporated): open the gripper and ``ObjectDetached``
     (:func:`plans.pick_place.release_held`), so no object stays attached after it."""
 
     async def drop() -> None:
         await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
-        target = a.location(pose=SINK_DROP_POSE)
-        await perform(an.action(type="placing", object=object_designator, target=target))
+        target = a.location(pose=_sink_drop_pose(object_designator))
+        await perform(
+            an.action(type="placing", object=object_designator, target=target, free_yaw=True)
+        )
 
     try:
         await ignoring(drop, (cpl.PlanFailure, DesignatorError))

@@ -720,6 +720,7 @@ class RealArmsPM(RealProcessModule):
                     "no IK solution found", left=args.get("left"), right=args.get("right")
                 )
             world.move_tcp(left=args.get("left"), right=args.get("right"))
+            _clear_ik(world, arms, args, torso, start)
         else:
             try:
                 world.move_joints(left=args.get("left"), right=args.get("right"))
@@ -737,9 +738,15 @@ class RealArmsPM(RealProcessModule):
             # The plan's waypoints assume the tool moves straight between them (a reach
             # approaches its object along the grasp axis): follow that line.
             path = _cartesian_path(world, arms, args, first, last)
+            routed = _reroute_cartesian(world, arms, path, start, goal)
+            if routed is not None:
+                path = [
+                    (torso + (goal_torso - torso) * i / max(1, len(routed) - 1), c)
+                    for i, c in enumerate(routed)
+                ]
         else:
             # Configuration moves (park, carry) are routed around free objects.
-            joints = _arm_path(world, arms, start, goal)
+            joints = _arm_path(world, arms, start, goal) or []
             path = [
                 (torso + (goal_torso - torso) * i / max(1, len(joints) - 1), c)
                 for i, c in enumerate(joints)
@@ -933,6 +940,95 @@ def _cartesian_path(
     return path
 
 
+def _arm_blocked(world: World, arms: Sequence[str]) -> bool:
+    """Whether a link of ``arms`` other than the gripper's (or an object they hold)
+    touches a free object: the gripper may touch the object it reaches for."""
+    free = {n for n in world.objects if n not in world.attachments}
+    prefixes = tuple(f"{_PREFIX[a]}_" for a in arms)
+    for c in world.robot_collisions():
+        if c.body_b not in free:
+            continue
+        link = c.link_a or ""
+        if link.startswith(prefixes) and "gripper" not in link:
+            return True
+    return False
+
+
+def _clear_ik(
+    world: World,
+    arms: Sequence[str],
+    args: Mapping[str, Any],
+    torso: float,
+    start: _ArmConfig,
+) -> None:
+    """The true world's IK picks the first solution at the first torso height that
+    reaches the goal, with no collision check, and may lay the elbow or forearm among the
+    objects next to the one reached for (projection's IK, seeded differently, checked
+    another configuration). Like a collision-aware IK, try the other torso heights (from
+    the arm's start) when this goal configuration makes an arm link other than the
+    gripper touch a free object, and keep the first that does not; none: the first
+    solution. Leaves the robot at the chosen goal configuration."""
+    if not _arm_blocked(world, arms):
+        return
+    chosen = (world.torso_height, {a: world.arm_joints(a) for a in arms})
+    index = _joint_indices(world)["torso_lift_joint"]
+    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
+    lo, hi = float(info[8]), float(info[9])
+    heights = sorted(
+        {round(lo + (hi - lo) * k / 6, 4) for k in range(7)} - {round(chosen[0], 4)},
+        key=lambda h: abs(h - torso),
+    )
+    for h in heights:
+        world.move_torso(h)
+        world.move_joints(**{a: start[a] for a in arms})
+        try:
+            world.move_tcp(left=args.get("left"), right=args.get("right"))
+        except ManipulationPoseUnreachable:
+            continue
+        if abs(world.torso_height - h) < 1e-6 and not _arm_blocked(world, arms):
+            return
+    world.move_torso(chosen[0])
+    world.move_joints(**chosen[1])
+
+
+def _reroute_cartesian(
+    world: World,
+    arms: Sequence[str],
+    path: list[_Config],
+    start: _ArmConfig,
+    goal: _ArmConfig,
+) -> list[_ArmConfig] | None:
+    """A joint-space route (:func:`_arm_path`, no fallback) replacing the Cartesian
+    ``path`` of a ``moving-tcp`` when that line sweeps the arm through a free object other
+    than those touched at its start or end (the object a reach approaches, the one the
+    hand is next to), e.g. from the carry pose to a pregrasp straight through a
+    neighbouring object; None (keep the line) when it is clear, when the torso moves
+    along it, or when no route is clear either. Leaves the arms and torso wherever the
+    checks put them (the caller resets)."""
+    torso = path[0][0]
+    if abs(path[-1][0] - torso) > 1e-3:
+        return None
+    free = {n for n in world.objects if n not in world.attachments}
+    if not free:
+        return None
+    world.move_torso(torso)
+    world.move_joints(**path[0][1])
+    allowed = _touched(world, free)
+    world.move_joints(**path[-1][1])
+    allowed |= _touched(world, free)
+    others = free - allowed
+    hit = False
+    for _t, config in path[1:-1]:
+        world.move_joints(**config)
+        if _touched(world, others):
+            hit = True
+            break
+    if not hit:
+        return None
+    world.move_joints(**start)
+    return _arm_path(world, arms, start, goal, fallback=False)
+
+
 #: Samples per straight joint-space segment when checking an arm path for collisions.
 PATH_CHECK_SAMPLES = 12
 #: The raised-arm via configuration (shoulder lifted, elbow bent) the controller routes
@@ -943,10 +1039,22 @@ RAISED_ELBOW_FLEX = -1.9
 _ArmConfig = dict[str, tuple[float, ...]]
 
 
-def _path_hits(world: World, arms: Sequence[str], a: _ArmConfig, b: _ArmConfig) -> bool:
+def _touched(world: World, free: set[str]) -> set[str]:
+    """The free objects the robot (or what it holds) touches now."""
+    return {c.body_b for c in world.robot_collisions() if c.body_b in free}
+
+
+def _path_hits(
+    world: World,
+    arms: Sequence[str],
+    a: _ArmConfig,
+    b: _ArmConfig,
+    allowed: set[str] | frozenset[str] = frozenset(),
+) -> bool:
     """Whether the straight joint-space segment a -> b makes an arm touch a free object
-    (one not attached to anything). Leaves the arms at ``b``."""
-    free = {n for n in world.objects if n not in world.attachments}
+    (one not attached to anything) other than those in ``allowed``. Leaves the arms at
+    ``b``."""
+    free = {n for n in world.objects if n not in world.attachments} - set(allowed)
     if not free:
         return False
     for k in range(1, PATH_CHECK_SAMPLES + 1):
@@ -954,32 +1062,126 @@ def _path_hits(world: World, arms: Sequence[str], a: _ArmConfig, b: _ArmConfig) 
         world.move_joints(
             **{arm: [p + f * (q - p) for p, q in zip(a[arm], b[arm])] for arm in arms}
         )
-        if any(c.body_b in free for c in world.robot_collisions()):
+        if _touched(world, free):
             return True
     return False
 
 
+#: Heights (m) by which the controller lifts a tool straight up (at the same torso
+#: height) to route an arm over the free objects around it.
+LIFT_HEIGHTS = (0.1, 0.2, 0.3)
+
+
+def _lifted(
+    world: World, arms: Sequence[str], config: _ArmConfig, dz: float
+) -> _ArmConfig | None:
+    """``config`` with each arm's tool frame ``dz`` higher (same orientation, same torso
+    height), by the true world's IK; None when an arm has no such solution. Leaves the
+    arms wherever the IK put them (the caller resets)."""
+    torso = world.torso_height
+    out: _ArmConfig = {}
+    for a in arms:
+        world.move_joints(**{a: config[a]})
+        tool = world.link_pose(_TOOL[a])
+        up = Pose((tool.position[0], tool.position[1], tool.position[2] + dz), tool.orientation)
+        try:
+            world.move_tcp(**{a: up})
+        except ManipulationPoseUnreachable:
+            return None
+        if abs(world.torso_height - torso) > 1e-6:
+            world.move_torso(torso)
+            return None
+        out[a] = world.arm_joints(a)
+    return out
+
+
 def _arm_path(
-    world: World, arms: Sequence[str], start: _ArmConfig, goal: _ArmConfig
-) -> list[_ArmConfig]:
+    world: World,
+    arms: Sequence[str],
+    start: _ArmConfig,
+    goal: _ArmConfig,
+    fallback: bool = True,
+) -> list[_ArmConfig] | None:
     """The joint-space path the simulated controller follows: straight when that touches
-    no free object, else through a raised-arm via configuration when that path is clear,
-    else straight anyway (the arm then pushes what it meets, as an arm without a planner
-    would). A real PR2 plans collision-free arm paths; projection teleports, so plans never
-    see this. Leaves the arms wherever the last check put them (the caller resets)."""
+    no free object, else the first clear one of: through a raised-arm via configuration;
+    lifting the tool straight up first (:data:`LIFT_HEIGHTS`), then straight, through the
+    raised via, along the straight tool line to the goal, or down onto the goal from
+    above. A lift that starts in contact with an
+    object (the hand next to an object after a failed grip) may touch that object, and
+    the final descent may touch what the goal touches (a pregrasp at its object).
+    Nothing clear: straight anyway (the arm then pushes what it meets, as an arm without
+    a planner would; ``fallback=False``: None). A real PR2 plans collision-free arm paths;
+    projection teleports, so plans never see this. Leaves the arms wherever the last check
+    put them (the caller resets)."""
     straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
     if not _path_hits(world, arms, start, goal):
         return straight
     lift, elbow = ARM_JOINTS.index("shoulder_lift_joint"), ARM_JOINTS.index("elbow_flex_joint")
-    via: _ArmConfig = {}
-    for a in arms:
-        q = list(start[a])
-        q[lift], q[elbow] = RAISED_SHOULDER_LIFT, RAISED_ELBOW_FLEX
-        via[a] = tuple(q)
+
+    def raised(config: _ArmConfig) -> _ArmConfig:
+        via: _ArmConfig = {}
+        for a in arms:
+            q = list(config[a])
+            q[lift], q[elbow] = RAISED_SHOULDER_LIFT, RAISED_ELBOW_FLEX
+            via[a] = tuple(q)
+        return via
+
+    free = {n for n in world.objects if n not in world.attachments}
     world.move_joints(**{a: start[a] for a in arms})
-    if _path_hits(world, arms, start, via) or _path_hits(world, arms, via, goal):
-        return straight
-    return [dict(straight[0]), via, dict(straight[1])]
+    at_start = _touched(world, free)
+    world.move_joints(**{a: goal[a] for a in arms})
+    at_goal = _touched(world, free)
+
+    def clear(path: list[_ArmConfig], lifts_first: bool, descends_last: bool) -> bool:
+        world.move_joints(**path[0])
+        last = len(path) - 2
+        for i, (u, v) in enumerate(itertools.pairwise(path)):
+            allowed: set[str] = set()
+            if i == 0 and lifts_first:
+                allowed |= at_start
+            if i == last and descends_last:
+                allowed |= at_goal
+            world.move_joints(**u)
+            if _path_hits(world, arms, u, v, allowed):
+                return False
+        return True
+
+    def over(up: _ArmConfig) -> list[_ArmConfig] | None:
+        """From ``up``, the tool frames along straight lines to the goal's (IK at small
+        steps, the torso kept): a lift, then a Cartesian approach."""
+        torso = world.torso_height
+        world.move_joints(**goal)
+        tools = {a: world.link_pose(_TOOL[a]) for a in arms}
+        world.move_joints(**up)
+        line = _cartesian_path(world, arms, tools, (torso, up), (torso, goal))
+        world.move_torso(torso)
+        if len(line) <= 2 or any(abs(t - torso) > 1e-6 for t, _c in line):
+            return None
+        return [c for _t, c in line]
+
+    begin, end = dict(straight[0]), dict(straight[1])
+    if clear([begin, raised(start), end], False, False):
+        return [begin, raised(start), end]
+    for dz in LIFT_HEIGHTS:
+        up = _lifted(world, arms, start, dz)
+        down = _lifted(world, arms, goal, dz)
+        candidates: list[tuple[list[_ArmConfig], bool, bool]] = []
+        if up is not None:
+            candidates += [
+                ([begin, up, end], True, False),
+                ([begin, up, raised(up), end], True, False),
+            ]
+            line = over(up)
+            if line is not None:
+                candidates.append(([begin, *line], True, True))
+            if down is not None:
+                candidates.append(([begin, up, down, end], True, True))
+        if down is not None:
+            candidates.append(([begin, raised(start), down, end], False, True))
+        for path, lifts_first, descends_last in candidates:
+            if clear(path, lifts_first, descends_last):
+                return path
+    return straight if fallback else None
 
 
 def _along(path: list[_ArmConfig], legs: list[float], total: float, s: float) -> _ArmConfig:
@@ -1056,6 +1258,12 @@ class RealWorldModel:
 
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         return self.belief.link_pose(link, frame)
+
+    def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return self.belief.link_aabb(link)
+
+    def object_aabb(self, name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return self.belief.object_aabb(name)
 
     def probe_base_pose(self, pose: Pose) -> ProbeResult:
         return self.belief.probe_base_pose(pose)

@@ -8,6 +8,7 @@ motion on it and put everything back (``World.snapshot``/``restore``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -28,6 +29,7 @@ from executive.failures import (
     ManipulationGoalInCollision,
     PerceptionObjectNotInWorld,
 )
+from projection._objects import object_type as _object_type
 from projection._world import Contact, World
 
 __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
@@ -36,6 +38,9 @@ __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
 DETACH_SETTLE_STEPS = 10
 #: How far (m) a placed object may move before the pose counts as unstable (CRAM: 0.2).
 STABILITY_THRESHOLD = 0.2
+#: How far (m) the footprints of a placed object and a neighbour may interpenetrate before
+#: the placing pose counts as overlapping it.
+OVERLAP_TOLERANCE = 0.005
 _PREFIX = {"left": "l", "right": "r"}
 
 
@@ -111,6 +116,17 @@ class ProjectedWorldModel:
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         """A robot or kitchen link's pose; unknown links raise LookupError."""
         return self.world.link_pose(link, frame)
+
+    def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """A robot or kitchen link's axis-aligned bounding box in map, ``(min, max)``;
+        unknown links raise LookupError."""
+        lo, hi = self.world.link_aabb(link)
+        return tuple(lo), tuple(hi)
+
+    def object_aabb(self, name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The object's axis-aligned bounding box in map, ``(min, max)``."""
+        lo, hi = self.world.object_aabb(self._known(name))
+        return tuple(lo), tuple(hi)
 
     # ------------------------------------------------------------------ events
     def handle_event(self, event: Event) -> None:
@@ -222,8 +238,24 @@ class ProjectedWorldModel:
         """Would an object of ``object_type`` released at ``pose`` stay within
         :data:`STABILITY_THRESHOLD` of it (up to 600 steps, in a side world holding the
         kitchen only)? The failure is a :class:`executive.HighLevelFailure` "Pose
-        unstable". The main world is not touched; unknown type: LookupError."""
+        unstable". The main world is not touched; unknown type: LookupError.
+
+        Deliberate addition (CRAM's side world holds the kitchen only): the pose is also
+        unstable when the object's box there overlaps a free object of the world (one
+        the robot does not hold) by more than :data:`OVERLAP_TOLERANCE` (oriented
+        footprints, by the separating-axis test, and heights); e.g. the cereal's fixed
+        placing pose on the island would land on a bowl placed there before it."""
         _pose(pose, "pose")
+        blocker = self._overlapping(object_type, pose)
+        if blocker is not None:
+            return ProbeResult(
+                False,
+                HighLevelFailure(
+                    f"Pose unstable: a {object_type} at {pose!r} overlaps {blocker}",
+                    object_type=object_type,
+                    pose=pose,
+                ),
+            )
         if self.world.placing_pose_stable(object_type, pose, threshold=STABILITY_THRESHOLD):
             return ProbeResult(True)
         return ProbeResult(
@@ -235,6 +267,21 @@ class ProjectedWorldModel:
                 pose=pose,
             ),
         )
+
+    def _overlapping(self, object_type: str, pose: Pose) -> str | None:
+        """The first free object whose box the object's box at ``pose`` (map or
+        base_footprint) overlaps, or None."""
+        world = self.world
+        size = _object_type(object_type).size
+        placed = _in_map(world, pose)
+        held = {n for n, link in world.attachments.items() if link in self._robot_links}
+        for name, otype in world.objects.items():
+            if name in held:
+                continue
+            other = world.object_pose(name)
+            if _boxes_overlap(placed, size, other, _object_type(otype).size):
+                return name
+        return None
 
     def __repr__(self) -> str:
         return f"<ProjectedWorldModel {self.world!r}>"
@@ -254,3 +301,33 @@ def _in_collision(arm: str, index: int, contacts: list[Contact]) -> Manipulation
         index=index,
         contacts=tuple(contacts),
     )
+
+
+def _in_map(world: World, pose: Pose) -> Pose:
+    if pose.frame == "map":
+        return pose
+    if pose.frame == "base_footprint":
+        tf = world.robot_pose().to_transform("base_footprint") * pose
+        return tf if isinstance(tf, Pose) else tf.to_pose()
+    raise ValueError(f"unsupported frame {pose.frame!r}; known: map, base_footprint")
+
+
+def _boxes_overlap(a: Pose, size_a: Sequence[float], b: Pose, size_b: Sequence[float]) -> bool:
+    """Whether two upright boxes (extents ``size``, centred at the poses, turned by their
+    yaws) interpenetrate by more than :data:`OVERLAP_TOLERANCE`."""
+    tol = OVERLAP_TOLERANCE
+    if abs(a.position[2] - b.position[2]) >= (size_a[2] + size_b[2]) / 2.0 - tol:
+        return False
+    centre = (b.position[0] - a.position[0], b.position[1] - a.position[1])
+    boxes = []
+    for pose, size in ((a, size_a), (b, size_b)):
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        boxes.append(((c, s), (-s, c), size[0] / 2.0, size[1] / 2.0))
+    for axis in (boxes[0][0], boxes[0][1], boxes[1][0], boxes[1][1]):
+        reach = sum(
+            hx * abs(ux * axis[0] + uy * axis[1]) + hy * abs(vx * axis[0] + vy * axis[1])
+            for (ux, uy), (vx, vy), hx, hy in boxes
+        )
+        if abs(centre[0] * axis[0] + centre[1] * axis[1]) >= reach - tol:
+            return False
+    return True
