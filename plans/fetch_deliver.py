@@ -176,13 +176,20 @@ def _turning_towards(d: Designator) -> Iterator[Any]:
 
 
 # ----------------------------------------------------------------------------- searching
+#: Torso height (m) from which ``searching`` looks a second time (the upper limit: camera
+#: at ~1.6 m).
+SEARCH_TORSO_HEIGHT = 0.33
+
+
 @cpl.plan(name="search-for-object")
 async def search_for_object(
     object_designator: ObjectDesignator, location: LocationDesignator, retries: int = 9
 ) -> ObjectDesignator:
     """Go where ``location``'s current sample is visible, look at it and detect the
-    object; on ``navigation-goal-in-collision``, ``looking-high-level-failure`` or
-    ``perception-low-level-failure`` try the next sample of ``location`` (9 retries).
+    object; a perception failure there is retried once from the raised torso (v0.8.1's
+    torso retry: deliberate, HEAD has none); on ``navigation-goal-in-collision``,
+    ``looking-high-level-failure`` or ``perception-low-level-failure`` try the next
+    sample of ``location`` (9 retries).
     Raises ``ObjectNowhereToBeFound`` when samples or retries run out (and for designator
     errors). Returns the perceived designator."""
     search_location = SolutionCursor(location)
@@ -193,10 +200,28 @@ async def search_for_object(
         view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
         await perform(an.action(type="navigating", location=view))
         await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
-        found: ObjectDesignator = await perform(
-            an.action(type="detecting", object=object_designator)
+        torso_raises = CountedRetries(1, "search-torso")
+
+        async def detect() -> ObjectDesignator:
+            found: ObjectDesignator = await perform(
+                an.action(type="detecting", object=object_designator)
+            )
+            return found
+
+        async def look_from_higher(_failure: BaseException) -> None:
+            # v0.8.1's torso retry: a taller object in front may hide the one sought
+            # from the default camera height; raise the camera and look again.
+            if torso_raises.do_retry():
+                await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
+                await perform(
+                    an.action(type="turning-towards", target=a.location(pose=spot))
+                )
+                cpl.retry()
+
+        result: ObjectDesignator = await cpl.with_failure_handling(
+            detect, [(PerceptionLowLevelFailure, look_from_higher)]
         )
-        return found
+        return result
 
     def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
         return ObjectNowhereToBeFound(object=object_label(object_designator))

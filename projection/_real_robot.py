@@ -719,7 +719,8 @@ class RealArmsPM(RealProcessModule):
                 raise ManipulationPoseUnreachable(
                     "no IK solution found", left=args.get("left"), right=args.get("right")
                 )
-            world.move_tcp(left=args.get("left"), right=args.get("right"))
+            if not _imagined_goal(world, body.belief, arms, args):
+                world.move_tcp(left=args.get("left"), right=args.get("right"))
             _clear_ik(world, arms, args, torso, start)
         else:
             try:
@@ -952,6 +953,30 @@ def _arm_blocked(world: World, arms: Sequence[str]) -> bool:
         if link.startswith(prefixes) and "gripper" not in link:
             return True
     return False
+
+
+def _imagined_goal(
+    world: World, belief: World, arms: Sequence[str], args: Mapping[str, Any]
+) -> bool:
+    """Put the true robot's arms and torso at the configuration the *belief* world's IK
+    gives for this goal. The belief robot mirrors the true one, and its IK memo holds the
+    configurations that projection's probes checked for collisions (the checks walk the
+    same waypoints from the same start), so the robot executes what it imagined instead
+    of an arbitrary other IK solution that may lay its forearm among the objects. The
+    belief world is left as it was. False if the belief's IK finds no solution (the
+    caller then solves in the true world)."""
+    snap = belief.snapshot()
+    try:
+        belief.move_tcp(left=args.get("left"), right=args.get("right"))
+        goal = {a: belief.arm_joints(a) for a in arms}
+        height = belief.torso_height
+    except ManipulationPoseUnreachable:
+        return False
+    finally:
+        belief.restore(snap)
+    world.move_torso(height)
+    world.move_joints(**goal)
+    return True
 
 
 def _clear_ik(

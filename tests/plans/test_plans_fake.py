@@ -208,7 +208,8 @@ def test_turning_towards_gives_up_after_one_turn(cup_world):
 
 
 # ------------------------------------------------------------------------------ searching
-def test_searching_walks_the_search_locations(cup_world):
+def test_searching_looks_again_from_the_raised_torso(cup_world):
+    # the detecting action retries 4x (5 calls); then the search raises the torso once
     robot = make_robot(cup_world, perception={i: PerceptionObjectNotFound for i in range(1, 6)})
     found = robot.run(
         perform,
@@ -216,11 +217,25 @@ def test_searching_walks_the_search_locations(cup_world):
     )
     assert found.get("name") == "cup-1"
     looked_at = [m.get("target").reference() for m in robot.calls("ptu")]
-    assert [p.position[1] for p in looked_at] == [0.0, pytest.approx(0.2)]
+    assert [p.position[1] for p in looked_at] == [0.0, 0.0]
+    (torso,) = robot.calls("torso")
+    assert torso.get("joint-angle") == pytest.approx(0.33)
+
+
+def test_searching_walks_the_search_locations(cup_world):
+    # both looks at the first spot fail (2 x 5 calls): the search moves to the next spot
+    robot = make_robot(cup_world, perception={i: PerceptionObjectNotFound for i in range(1, 11)})
+    found = robot.run(
+        perform,
+        an.action(type="searching", object=an.object(type="cup"), location=a.location(spots=3)),
+    )
+    assert found.get("name") == "cup-1"
+    looked_at = [m.get("target").reference() for m in robot.calls("ptu")]
+    assert [p.position[1] for p in looked_at] == [0.0, 0.0, pytest.approx(0.2)]
 
 
 def test_searching_gives_up_after_nine_retries(cup_world):
-    robot = make_robot(cup_world, perception={i: PerceptionObjectNotFound for i in range(1, 99)})
+    robot = make_robot(cup_world, perception={i: PerceptionObjectNotFound for i in range(1, 999)})
 
     async def search():
         with retry_ledger() as ledger:
@@ -238,7 +253,8 @@ def test_searching_gives_up_after_nine_retries(cup_world):
     counts: dict = {}
     with pytest.raises(ObjectNowhereToBeFound):
         robot.run(search)
-    assert counts["search"] == 9 and len(robot.calls("perception")) == 10 * 5
+    assert counts["search"] == 9 and counts["search-torso"] == 10
+    assert len(robot.calls("perception")) == 10 * 2 * 5  # 10 spots, 2 looks, 5 detections
 
 
 # ------------------------------------------------------------------------------- fetching
