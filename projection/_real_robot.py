@@ -31,7 +31,7 @@ import math
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, fields, replace
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, TypeVar
 
 import numpy as np
 import pybullet as pb
@@ -65,6 +65,8 @@ from projection._objects import object_type
 from projection._process_modules import PtuPM
 from projection._world import World
 from projection._world_model import DETACH_SETTLE_STEPS, ProjectedWorldModel
+
+T = TypeVar("T")
 
 __all__ = [
     "ARM_JOINT_VELOCITY",
@@ -858,18 +860,23 @@ def _base_path(world: World, start: Pose, goal: Pose) -> list[_BasePose]:
 
 def _along_base(path: list[_BasePose], legs: list[float], s: float) -> _BasePose:
     """The base pose at fraction ``s`` of the path's duration (legs in seconds)."""
+
+    def lerp(p: _BasePose, q: _BasePose, f: float) -> _BasePose:
+        return (p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1]), p[2] + f * _wrap(q[2] - p[2]))
+
+    return _along_timed(path, legs, s, lerp)
+
+
+def _along_timed(path: list[T], legs: list[float], s: float, lerp: Callable[[T, T, float], T]) -> T:
+    """The point at fraction ``s`` of a polyline's total duration, where ``legs[i]`` is
+    the duration of the segment ``path[i] -> path[i + 1]``."""
     total = sum(legs)
     if total <= 0.0:
         return path[-1]
     d = s * total
     for (p, q), leg in zip(itertools.pairwise(path), legs):
         if d <= leg or q is path[-1]:
-            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
-            return (
-                p[0] + f * (q[0] - p[0]),
-                p[1] + f * (q[1] - p[1]),
-                p[2] + f * _wrap(q[2] - p[2]),
-            )
+            return lerp(p, q, 1.0 if leg <= 0.0 else min(1.0, d / leg))
         d -= leg
     return path[-1]
 
@@ -887,19 +894,14 @@ def _leg_seconds(u: _Config, v: _Config) -> float:
 
 def _along_configs(path: list[_Config], legs: list[float], s: float) -> _Config:
     """The configuration at fraction ``s`` of a configuration path's duration."""
-    total = sum(legs)
-    if total <= 0.0:
-        return path[-1]
-    d = s * total
-    for (u, v), leg in zip(itertools.pairwise(path), legs):
-        if d <= leg or v is path[-1]:
-            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
-            return (
-                u[0] + f * (v[0] - u[0]),
-                {a: tuple(p + f * (q - p) for p, q in zip(u[1][a], v[1][a])) for a in u[1]},
-            )
-        d -= leg
-    return path[-1]
+
+    def lerp(u: _Config, v: _Config, f: float) -> _Config:
+        return (
+            u[0] + f * (v[0] - u[0]),
+            {a: tuple(p + f * (q - p) for p, q in zip(u[1][a], v[1][a])) for a in u[1]},
+        )
+
+    return _along_timed(path, legs, s, lerp)
 
 
 def _cartesian_path(
@@ -1097,9 +1099,7 @@ def _path_hits(
 LIFT_HEIGHTS = (0.1, 0.2, 0.3)
 
 
-def _lifted(
-    world: World, arms: Sequence[str], config: _ArmConfig, dz: float
-) -> _ArmConfig | None:
+def _lifted(world: World, arms: Sequence[str], config: _ArmConfig, dz: float) -> _ArmConfig | None:
     """``config`` with each arm's tool frame ``dz`` higher (same orientation, same torso
     height), by the true world's IK; None when an arm has no such solution. Leaves the
     arms wherever the IK put them (the caller resets)."""
@@ -1207,19 +1207,6 @@ def _arm_path(
             if clear(path, lifts_first, descends_last):
                 return path
     return straight if fallback else None
-
-
-def _along(path: list[_ArmConfig], legs: list[float], total: float, s: float) -> _ArmConfig:
-    """The arm configuration at fraction ``s`` of a joint-space polyline."""
-    if total <= 0.0:
-        return path[-1]
-    d = s * total
-    for (u, v), leg in zip(itertools.pairwise(path), legs):
-        if d <= leg or v is path[-1]:
-            f = 1.0 if leg <= 0.0 else min(1.0, d / leg)
-            return {a: tuple(p + f * (q - p) for p, q in zip(u[a], v[a])) for a in u}
-        d -= leg
-    return path[-1]
 
 
 def real_process_modules(
