@@ -353,8 +353,9 @@ def _command(args: argparse.Namespace) -> int:
     print(f"wrote {out / 'campaign.json'} and {', '.join(str(p) for p in plots)}")
     errors = sum(1 for r in results if "error" in r)
     if errors:
-        print(f"{errors} runs crashed in the harness (see 'error' in campaign.json)",
-              file=sys.stderr)
+        print(
+            f"{errors} runs crashed in the harness (see 'error' in campaign.json)", file=sys.stderr
+        )
         return 3
     violated = sum(len(r["invariant_violations"]) for r in summary["rows"])
     return 1 if violated else 0

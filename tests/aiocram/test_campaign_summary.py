@@ -67,3 +67,23 @@ def test_harness_errors_count_as_violations():
 def test_bad_arguments(kwargs, message):
     with pytest.raises(ValueError, match=message):
         run_campaign(**kwargs)
+
+
+def test_campaign_section_of_the_benchmark_report(tmp_path):
+    import json
+
+    from aiocram.bench import _campaign_markdown
+
+    summary = summarise(
+        [_run(1, 0.0, True, 5, 10.0), _run(2, 0.1, False, 4, 12.0, broken=("arms_parked",))]
+    )
+    summary.update(
+        command="aiocram campaign --seeds 2", backend="local", workers=2, wall_time_s=120.0
+    )
+    (tmp_path / "campaign.json").write_text(json.dumps({"summary": summary, "runs": []}))
+    text = _campaign_markdown(tmp_path)
+    assert "| yes | 0.00 | 1 | 100.0 % | 10.00 |" in text
+    assert "| no | 0.10 | 1 | 80.0 % | 12.00 |" in text
+    assert "arms_parked 1" in text
+    with pytest.raises(ValueError, match="no campaign summary"):
+        _campaign_markdown(tmp_path / "missing")
