@@ -74,15 +74,19 @@ def _machine() -> dict[str, str]:
                 break
     except OSError:
         pass
-    import pybullet
+    from importlib.metadata import PackageNotFoundError, version
 
+    try:
+        pybullet_version = version("pybullet")
+    except PackageNotFoundError:
+        pybullet_version = "unknown"
     return {
         "cpu": cpu,
         "cores": str(os.cpu_count()),
         "memory": mem,
         "os": platform.platform(),
         "python": platform.python_version(),
-        "pybullet": str(getattr(pybullet, "__version__", "3.2.x")),
+        "pybullet": pybullet_version,
     }
 
 
@@ -125,7 +129,7 @@ def run_benchmarks(
     if out is not None:
         text = _markdown(results)
         if campaign is not None:
-            text += _campaign_markdown(campaign)
+            text += "\n" + _campaign_markdown(campaign)
         out.write_text(text)
         print(f"wrote {out}")
     return results

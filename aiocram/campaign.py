@@ -239,6 +239,7 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
             )
         ax.set_xlabel("low-level fault rate")
         ax.set_ylabel(label)
+        ax.set_ylim(0.0, 1.02 if key == "success_rate" else None)
         ax.grid(True, alpha=0.3)
         ax.legend()
         fig.tight_layout()
