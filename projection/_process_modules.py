@@ -195,25 +195,31 @@ class PerceptionPM(ProjectionProcessModule):
         return perceived
 
 
-class GrippersPM(ProjectionProcessModule):
-    """``opening-gripper``/``closing-gripper``/``gripping``/``moving-gripper-joint`` (and
-    ``opening``/``closing`` that carry a ``gripper``) -> :meth:`World.gripper`. The joint
-    angle of ``moving-gripper-joint`` is the opening in metres. Raises
-    :class:`executive.GripperClosedCompletely` when gripping nothing (the gripper stays
-    closed), :class:`executive.GripperGoalNotReached` for an opening outside [0, 0.1]."""
+class GripperMotions:
+    """The gripper module's motions, shared by the projected and the real robot:
+    ``opening-gripper``/``closing-gripper``/``gripping``/``moving-gripper-joint``, and
+    CRAM HEAD's ``opening``/``closing`` when they carry a ``gripper``."""
 
     motion_types = frozenset(
         {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
     )
     commands = frozenset({"move-gripper-joint"})
 
-    def __init__(self, world: World) -> None:
-        super().__init__(world, "grippers")
-
     def accepts(self, motion: Designator) -> bool:
         return motion.type in self.motion_types or (
             motion.type in ("opening", "closing") and "gripper" in motion
         )
+
+
+class GrippersPM(GripperMotions, ProjectionProcessModule):
+    """``opening-gripper``/``closing-gripper``/``gripping``/``moving-gripper-joint`` (and
+    ``opening``/``closing`` that carry a ``gripper``) -> :meth:`World.gripper`. The joint
+    angle of ``moving-gripper-joint`` is the opening in metres. Raises
+    :class:`executive.GripperClosedCompletely` when gripping nothing (the gripper stays
+    closed), :class:`executive.GripperGoalNotReached` for an opening outside [0, 0.1]."""
+
+    def __init__(self, world: World) -> None:
+        super().__init__(world, "grippers")
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
         args = command.arguments

@@ -62,7 +62,7 @@ from executive.failures import (
 )
 from executive.knowledge import ARM_JOINTS
 from projection._objects import object_type
-from projection._process_modules import PtuPM
+from projection._process_modules import GripperMotions, PtuPM
 from projection._world import World
 from projection._world_model import DETACH_SETTLE_STEPS, ProjectedWorldModel
 
@@ -637,25 +637,15 @@ class RealPerceptionPM(RealProcessModule):
         return perceived
 
 
-class RealGrippersPM(RealProcessModule):
+class RealGrippersPM(GripperMotions, RealProcessModule):
     """Gripper motions at :data:`FINGER_VELOCITY` (the projection ``grippers`` module's
     types). ``gripping`` closes until contact; nothing between the fingers, or a
     ``grasp_slip`` fault, raises :class:`executive.GripperClosedCompletely` with nothing
     held; a ``drop`` fault arms a drop for the arm's next motion. An opening outside
     [0, 0.1] raises :class:`executive.GripperGoalNotReached` before moving."""
 
-    motion_types = frozenset(
-        {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
-    )
-    commands = frozenset({"move-gripper-joint"})
-
     def __init__(self, body: _Body) -> None:
         super().__init__(body, "grippers")
-
-    def accepts(self, motion: Designator) -> bool:
-        return motion.type in self.motion_types or (
-            motion.type in ("opening", "closing") and "gripper" in motion
-        )
 
     async def run(self, command: MotionCommand, motion: Designator) -> None:
         world, body = self.world, self.body

@@ -11,16 +11,15 @@ import io
 import os
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pytest
+from fake_tasks import FakeTask
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rich.console import Console
 
-from cpl._failures import Evaporated
 from cpl._status import Status
 from cpl._tree import FailureInfo, TaskNode, snapshot
 from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration, render, render_text
@@ -250,32 +249,6 @@ def test_format_duration(seconds: float, text: str) -> None:
 
 
 # --------------------------------------------------------------------------- snapshot side
-
-
-@dataclass(eq=False)
-class FakeTask:
-    name: str
-    kind: str = "plan"
-    state: Status = Status.SUCCEEDED
-    start_time: float | None = 0.0
-    end_time: float | None = 1.0
-    result: Any = None
-    failure: BaseException | None = None
-    evaporation: Evaporated | None = None
-    arguments: dict[str, Any] | None = None
-    annotations: dict[str, Any] | None = None
-    waiting_on: str | None = None
-    parent: FakeTask | None = None
-    children: list[FakeTask] = field(default_factory=list)
-
-    @property
-    def path(self) -> tuple[str, ...]:
-        return (*self.parent.path, self.name) if self.parent else (self.name,)
-
-    def add(self, child: FakeTask) -> FakeTask:
-        child.parent = self
-        self.children.append(child)
-        return child
 
 
 _STATUSES = st.sampled_from(list(Status))

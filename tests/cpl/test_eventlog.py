@@ -6,11 +6,11 @@ import asyncio
 import io
 import json
 import logging
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pytest
+from fake_tasks import FakeTask
 from rich.console import Console
 
 from cpl._eventlog import EVENT_SCHEMA, EventLog, load_events, tree_from_log
@@ -19,36 +19,6 @@ from cpl._status import Status
 from cpl._tree import TaskNode, snapshot
 
 S = Status
-
-
-@dataclass(eq=False)
-class FakeTask:
-    name: str
-    kind: str = "plan"
-    state: Status = Status.SUCCEEDED
-    start_time: float | None = 0.0
-    end_time: float | None = 1.0
-    result: Any = None
-    failure: BaseException | None = None
-    evaporation: Evaporated | None = None
-    arguments: dict[str, Any] | None = None
-    annotations: dict[str, Any] | None = None
-    waiting_on: str | None = None
-    parent: FakeTask | None = None
-    children: list[FakeTask] = field(default_factory=list)
-    path_entry: str = ""
-
-    @property
-    def path(self) -> tuple[str, ...]:
-        own = self.path_entry or self.name
-        return (*self.parent.path, own) if self.parent else (own,)
-
-    def add(self, child: FakeTask) -> FakeTask:
-        child.parent = self
-        n = sum(1 for c in self.children if c.name == child.name)
-        child.path_entry = child.name if n == 0 else f"{child.name}#{n + 1}"
-        self.children.append(child)
-        return child
 
 
 class GraspFailure(PlanFailure):

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from dataclasses import dataclass, field
-from typing import Any
 
 import pytest
+from fake_tasks import FakeTask
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -25,42 +24,6 @@ from cpl._tree import (
 )
 
 # --------------------------------------------------------------------------- fake tasks
-
-
-@dataclass(eq=False)
-class FakeTask:
-    """The attributes of cpl.Task that snapshot() reads."""
-
-    name: str
-    kind: str = "plan"
-    state: Status = Status.SUCCEEDED
-    start_time: float | None = 0.0
-    end_time: float | None = 1.0
-    result: Any = None
-    failure: BaseException | None = None
-    evaporation: Evaporated | None = None
-    arguments: dict[str, Any] | None = None
-    annotations: dict[str, Any] | None = None
-    waiting_on: str | None = None
-    parent: FakeTask | None = None
-    children: list[FakeTask] = field(default_factory=list)
-    path_entry: str | None = None
-
-    @property
-    def path(self) -> tuple[str, ...]:
-        parts: list[str] = []
-        node: FakeTask | None = self
-        while node is not None:
-            parts.append(node.path_entry or node.name)
-            node = node.parent
-        return tuple(reversed(parts))
-
-    def add(self, child: FakeTask) -> FakeTask:
-        child.parent = self
-        same = sum(1 for c in self.children if c.name == child.name)
-        child.path_entry = child.name if same == 0 else f"{child.name}#{same + 1}"
-        self.children.append(child)
-        return child
 
 
 class Designator:
