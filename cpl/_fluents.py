@@ -359,7 +359,10 @@ class _Derived(Fluent[T]):
         self._update()
 
     def _update(self) -> None:
-        raise NotImplementedError
+        """Recompute after an input pulsed; every kind of derived fluent defines it."""
+        raise NotImplementedError(
+            f"{type(self).__name__} derives from _Derived but does not define _update()"
+        )
 
 
 class _CacheableNet(_Derived[T]):
