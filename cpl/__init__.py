@@ -7,7 +7,7 @@ evaporation (cancellation) always lets cleanup run. Everything public is here; t
 modules behind it are private.
 """
 
-from ._clock import Clock, ScaledClock, SystemClock
+from ._clock import Clock, ScaledClock, SystemClock, current_clock
 from ._eventlog import EventLog, load_events, tree_from_log
 from ._failure_handling import RetryCounter, retry, return_, with_failure_handling, with_retry
 from ._failures import CompositeFailure, Evaporated, PlanFailure, fail
@@ -56,6 +56,7 @@ __all__ = [
     "Task",
     "TaskNode",
     "ancestors",
+    "current_clock",
     "current_task",
     "fail",
     "find_tasks",

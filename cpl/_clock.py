@@ -23,7 +23,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["Clock", "MockClock", "ScaledClock", "SystemClock"]
+__all__ = ["Clock", "MockClock", "ScaledClock", "SystemClock", "current_clock"]
 
 
 class Clock(ABC):
@@ -41,15 +41,22 @@ class Clock(ABC):
     def now(self) -> float:
         """The current time of this clock, in seconds (what ``loop.time()`` returns)."""
 
+    @property
+    def rate(self) -> float:
+        """How many clock seconds pass per wall second: 1 for real time, ``math.inf`` for
+        as fast as possible (time jumps whenever the loop is idle)."""
+        return 1.0
+
 
 class SystemClock(Clock):
-    """Real time: the loop's own monotonic clock. Installing it is a no-op."""
+    """Real time: the loop's own monotonic clock. Installing it only records it as the
+    loop's clock (:func:`current_clock`)."""
 
     def install(self, loop: asyncio.AbstractEventLoop) -> None:
-        pass
+        _register(loop, self)
 
     def uninstall(self, loop: asyncio.AbstractEventLoop) -> None:
-        pass
+        _unregister(loop, self)
 
     def now(self) -> float:
         return time.monotonic()
@@ -60,6 +67,30 @@ class SystemClock(Clock):
 
 def _noop() -> None:
     pass
+
+
+#: The attribute under which a loop carries its installed clock. The clock belongs to the
+#: loop (no module-level registry): it lives and dies with the loop object.
+_LOOP_ATTR = "_cpl_clock"
+
+
+def _register(loop: asyncio.AbstractEventLoop, clock: Clock) -> None:
+    setattr(loop, _LOOP_ATTR, clock)
+
+
+def _unregister(loop: asyncio.AbstractEventLoop, clock: Clock) -> None:
+    if getattr(loop, _LOOP_ATTR, None) is clock:
+        delattr(loop, _LOOP_ATTR)
+
+
+def current_clock() -> Clock:
+    """The clock the running event loop runs on: the one installed with
+    ``cpl.run(..., clock=...)`` or ``Clock.install``, else a :class:`SystemClock` (the loop's
+    own monotonic time). Outside a running loop: ``RuntimeError``, as asyncio's own
+    ``get_running_loop``."""
+    loop = asyncio.get_running_loop()
+    clock = getattr(loop, _LOOP_ATTR, None)
+    return clock if isinstance(clock, Clock) else SystemClock()
 
 
 #: asyncio runs a timer when ``when < time() + resolution``; past about 1.7e7 s a float
@@ -172,6 +203,11 @@ class _VirtualClock(Clock):
         self._loop = loop
         loop.time = self.now  # type: ignore[method-assign]
         selector.select = self._select
+        _register(loop, self)
+
+    @property
+    def rate(self) -> float:
+        return math.inf if self._autojump else self._rate
 
     def uninstall(self, loop: asyncio.AbstractEventLoop) -> None:
         """Restore ``loop.time`` and its selector. Raises ``ValueError`` for another loop.
@@ -184,6 +220,7 @@ class _VirtualClock(Clock):
             self._base = self.now()
         vars(loop).pop("time", None)
         vars(self._selector).pop("select", None)
+        _unregister(loop, self)
         self._loop = None
         self._selector = None
         self._real_select = None

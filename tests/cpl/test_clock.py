@@ -11,6 +11,7 @@ from typing import Any, TypeVar
 
 import pytest
 
+import cpl
 from cpl._clock import Clock, ScaledClock, SystemClock
 from cpl.testing import MockClock
 
@@ -258,3 +259,21 @@ def test_scaled_clock_bad_factor(factor: Any) -> None:
 def test_reprs() -> None:
     assert repr(MockClock(start=2)) == "MockClock(autojump=True, now=2.0)"
     assert repr(ScaledClock(None)).startswith("ScaledClock(inf")
+
+
+def test_current_clock_reports_the_installed_clock_and_its_rate() -> None:
+    import math
+
+    async def which() -> cpl.Clock:
+        return cpl.current_clock()
+
+    assert isinstance(cpl.run(which), cpl.SystemClock)
+    mock = MockClock()
+    assert cpl.run(which, clock=mock) is mock
+    assert mock.rate == math.inf
+    scaled = cpl.ScaledClock(5)
+    assert cpl.run(which, clock=scaled) is scaled
+    assert scaled.rate == 5.0
+    assert MockClock(autojump=False).rate == 0.0
+    with pytest.raises(RuntimeError):
+        cpl.current_clock()
