@@ -30,7 +30,7 @@ from __future__ import annotations
 import contextvars
 import math
 from collections.abc import Iterator, Mapping
-from typing import TYPE_CHECKING, Any, ClassVar, Final
+from typing import TYPE_CHECKING, Any, ClassVar, Final, Self, cast
 
 from ._environment import Environment, current_environment
 from ._pose import Pose, Transform
@@ -275,7 +275,7 @@ class Designator:
         """The distinct keys, in first-appearance order."""
         return tuple(dict.fromkeys(k for k, _ in self._props))
 
-    def copy(self, *pairs: Pair, **changes: Any) -> Designator:
+    def copy(self, *pairs: Pair, **changes: Any) -> Self:
         """A new, unresolved, unchained designator of the same kind. Keyword ``changes``
         replace every value of their key (at the key's first position; new keys go last;
         ``None`` removes the key); positional ``pairs`` are appended (repeats)."""
@@ -378,19 +378,20 @@ class Designator:
         return new
 
     # -- chain ------------------------------------------------------------------------
-    def current(self) -> Designator:
-        """The newest designator of this chain (CRAM's ``current-desig``)."""
-        d = self
+    def current(self) -> Self:
+        """The newest designator of this chain (CRAM's ``current-desig``; a chain holds
+        one kind of designator, see :func:`equate`)."""
+        d: Designator = self
         while d._successor is not None:
             d = d._successor
-        return d
+        return cast(Self, d)
 
-    def first(self) -> Designator:
+    def first(self) -> Self:
         """The oldest designator of this chain (CRAM's ``first-desig``)."""
-        d = self
+        d: Designator = self
         while d._parent is not None:
             d = d._parent
-        return d
+        return cast(Self, d)
 
     def newest_effective(self) -> Designator | None:
         """The newest member of the chain that has been referenced, or ``None``."""

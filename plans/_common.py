@@ -21,6 +21,7 @@ from executive import (
     current_environment,
     perform,
 )
+from executive.knowledge import ARM_PREFIX, tool_frame, wrist_link
 
 __all__ = [
     "ARM_PREFIX",
@@ -36,7 +37,6 @@ __all__ = [
     "wrist_link",
 ]
 
-ARM_PREFIX = {"left": "l", "right": "r"}
 
 #: Where :class:`CountedRetries` report the retries they grant (by kind), if anyone asks:
 #: :func:`retry_ledger` binds a fresh counter for a block (the demo does, per object).
@@ -67,15 +67,6 @@ def retry_ledger() -> Iterator[Counter[str]]:
         yield ledger
     finally:
         _LEDGER.reset(token)
-
-
-def tool_frame(arm: str) -> str:
-    return f"{ARM_PREFIX[arm]}_gripper_tool_frame"
-
-
-def wrist_link(arm: str) -> str:
-    """CRAM's end-effector link (objects are attached to it)."""
-    return f"{ARM_PREFIX[arm]}_wrist_roll_link"
 
 
 async def perform_ignoring(
@@ -110,7 +101,7 @@ def as_location(target: Any) -> LocationDesignator:
     """A location designator for a pose (``(pose P)``), or the newest member of a given
     location designator's chain."""
     if isinstance(target, LocationDesignator):
-        return target.current()  # type: ignore[return-value]
+        return target.current()
     if isinstance(target, Pose):
         return a.location(pose=target)
     raise DesignatorError(f"expected a location designator or a Pose, got {target!r}", target)

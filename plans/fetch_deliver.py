@@ -51,6 +51,7 @@ from executive import (
     a,
     an,
     current_environment,
+    kitchen,
     perform,
     retry_with_designator_solutions,
     rule,
@@ -324,7 +325,7 @@ async def fetch(
             ],
         )
         await park_arms()
-        return object_designator.current()  # type: ignore[return-value]
+        return object_designator.current()
 
     result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
     return result
@@ -497,7 +498,7 @@ def _held_type(obj: ObjectDesignator) -> str:
     if isinstance(otype, str):
         return otype
     name = obj.current().get("name")
-    return current_environment().world.object_type(name)  # type: ignore[attr-defined,no-any-return]
+    return current_environment().world.object_type(name)
 
 
 @rule("action", "delivering")
@@ -518,7 +519,7 @@ def _delivering(d: Designator) -> Iterator[Any]:
 SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
 SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
 #: The counter the object is put down on at the sink, and the gap (m) left below it.
-SINK_SURFACE = "sink_area_surface"
+SINK_SURFACE = kitchen.SINK_SURFACE
 SINK_DROP_CLEARANCE = 0.01
 
 
@@ -528,16 +529,15 @@ def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
     the held object's bottom is :data:`SINK_DROP_CLEARANCE` above the sink counter's top,
     from the world model's ``link_aabb`` and ``object_aabb`` (CRAM released it 1.2 m above
     the floor, 0.35 m above our counter: a bowl or cup bounced and rolled off the
-    counter's front edge onto the floor). A world model without those: CRAM's pose."""
+    counter's front edge onto the floor). A world model that knows neither extent
+    (``LookupError``): CRAM's pose."""
     world = current_environment().world
-    link_aabb = getattr(world, "link_aabb", None)
-    object_aabb = getattr(world, "object_aabb", None)
     name = object_designator.current().get("name")
-    if link_aabb is None or object_aabb is None or not isinstance(name, str):
+    if not isinstance(name, str):
         return SINK_DROP_POSE
     try:
-        top = link_aabb(SINK_SURFACE)[1][2]
-        lo, hi = object_aabb(name)
+        top = world.link_aabb(SINK_SURFACE)[1][2]
+        lo, hi = world.object_aabb(name)
     except LookupError:
         return SINK_DROP_POSE
     half = (hi[2] - lo[2]) / 2.0
@@ -677,7 +677,7 @@ async def manipulate_environment(
     async def body() -> None:
         link = handle_link(container)
         try:
-            handle = current_environment().world.link_pose(link, "map")  # type: ignore[attr-defined]
+            handle = current_environment().world.link_pose(link, "map")
         except LookupError as error:
             raise DesignatorError(f"{container.short()}: {error}", container) from error
         base_poses = SolutionCursor(
