@@ -55,6 +55,7 @@ from .failures import __all__ as _failure_names
 from .retry import (
     ListCursor,
     SolutionCursor,
+    retry_scope,
     retry_with_designator_solutions,
     retry_with_list_solutions,
 )
@@ -106,6 +107,7 @@ __all__ = [
     "register_location_generator",
     "register_location_validator",
     "register_rule",
+    "retry_scope",
     "retry_with_designator_solutions",
     "retry_with_list_solutions",
     "rule",

@@ -34,6 +34,7 @@ __all__ = [
     "to_base",
     "tool_frame",
     "translating_designator_errors",
+    "translating_failures",
     "wrist_link",
 ]
 
@@ -90,11 +91,21 @@ async def translating_designator_errors(
 ) -> Any:
     """Run ``body()``; a ``designator-error`` leaving it becomes ``into(error)`` (chained):
     CRAM's translation of designator errors at every plan boundary."""
+    return await translating_failures(DesignatorError, body, into)
+
+
+async def translating_failures(
+    failures: type[Exception] | tuple[type[Exception], ...],
+    body: Callable[[], Awaitable[Any]],
+    into: Callable[[BaseException], BaseException],
+) -> Any:
+    """Run ``body()``; a failure of type ``failures`` leaving it becomes ``into(failure)``
+    (chained)."""
 
     def translate(error: BaseException) -> None:
         raise into(error) from error
 
-    return await cpl.with_failure_handling(body, [(DesignatorError, translate)])
+    return await cpl.with_failure_handling(body, [(failures, translate)])
 
 
 def as_location(target: Any) -> LocationDesignator:
