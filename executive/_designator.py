@@ -32,6 +32,8 @@ import math
 from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING, Any, ClassVar, Final, Self, cast
 
+from cpl import LazyList
+
 from ._environment import Environment, current_environment
 from ._pose import Pose, Transform
 from ._rules import WILDCARD, Rule
@@ -132,16 +134,6 @@ class _SolutionStream:
                 return
             yield value
             i += 1
-
-
-def lazy_list_class() -> Any:
-    """``cpl.LazyList`` (read from ``cpl._lazy`` until ``cpl`` exports it)."""
-    import cpl
-
-    lazy = getattr(cpl, "LazyList", None)
-    if lazy is None:
-        from cpl._lazy import LazyList as lazy
-    return lazy
 
 
 # ---------------------------------------------------------------------------- validation
@@ -351,11 +343,11 @@ class Designator:
         """True once this designator has been referenced."""
         return self._has_data
 
-    def solutions(self) -> Any:
+    def solutions(self) -> LazyList[Any]:
         """All solutions from this designator's own on, as a memoised ``cpl.LazyList``
         (shared with the chain: forcing it does not re-run the rules)."""
         stream = self._ensure_stream()
-        return lazy_list_class()(stream.iter_from(self._index))
+        return LazyList(stream.iter_from(self._index))
 
     def next_solution(self) -> Designator | None:
         """A new designator, equated to this one, whose solution is the next element of the

@@ -51,7 +51,7 @@ from typing import Any, NoReturn, TypeVar
 
 import cpl
 
-from ._designator import Designator, LocationDesignator, equate, lazy_list_class
+from ._designator import Designator, LocationDesignator, equate
 
 __all__ = [
     "DEFAULT_ANGLE_THRESHOLD",
@@ -128,8 +128,9 @@ class ListCursor:
     __slots__ = ("solutions",)
 
     def __init__(self, solutions: Iterable[Any]) -> None:
-        lazy = lazy_list_class()
-        self.solutions: Any = solutions if isinstance(solutions, lazy) else lazy(solutions)
+        self.solutions: cpl.LazyList[Any] = (
+            solutions if isinstance(solutions, cpl.LazyList) else cpl.LazyList(solutions)
+        )
 
     @property
     def current(self) -> Any:
