@@ -19,7 +19,7 @@ Kitchen (map frame, fixed base, origin = map origin), after the IAI kitchen:
 z 0.82..0.85) on it; the hollow drawer ``sink_area_left_upper_drawer_main`` (x 1.12..1.70,
 y 0.80..1.20, bottom top at z 0.7335) on the prismatic
 ``sink_area_left_upper_drawer_main_joint`` opening along -x (0..0.48 m) with its handle;
-``kitchen_island`` x -1.20..-0.55, y 0.20..2.40 with ``kitchen_island_surface`` (top
+``kitchen_island`` x -1.20..-0.55, y 0.40..2.40 with ``kitchen_island_surface`` (top
 0.85); four walls ``kitchen_wall_{east,west,south,north}`` as separate links (so a
 costmap built from link AABBs does not cover the room). Link origins are the centres of
 their boxes.
@@ -282,8 +282,10 @@ _DRAWER = (
     _span((1.135, 1.185, 0.7335), (1.685, 1.20, 0.815)),  # left side
 )
 _HANDLE = (_span((1.095, 0.925, 0.765), (1.12, 1.075, 0.785)),)
-_ISLAND = (_span((-1.20, 0.20, 0.0), (-0.55, 2.40, 0.82)),)
-_ISLAND_SURFACE = (_span((-1.20, 0.20, 0.82), (-0.55, 2.40, 0.85)),)
+#: The island starts at y 0.40, so the robot stands clear of it at the seed's (-0.5, 0, 0)
+#: (its 0.65 m base then ends at y 0.325) while every CRAM placing pose (y 0.8..1.7) is on it.
+_ISLAND = (_span((-1.20, 0.40, 0.0), (-0.55, 2.40, 0.82)),)
+_ISLAND_SURFACE = (_span((-1.20, 0.40, 0.82), (-0.55, 2.40, 0.85)),)
 _WALLS = {
     "kitchen_wall_east": (_span((2.00, -1.70, 0.0), (2.10, 3.10, 2.0)),),
     "kitchen_wall_west": (_span((-2.10, -1.70, 0.0), (-2.00, 3.10, 2.0)),),

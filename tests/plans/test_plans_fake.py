@@ -264,11 +264,12 @@ def fetch(robot, world, **props):
 
 def test_fetching_relocates_when_no_pick_solution_is_reachable(cup_world):
     robot = make_robot(cup_world)
-    cup_world.fail_probe["arm"] = {n: True for n in range(1, 9)}  # all 8 (arm, grasp) fail
+    # all 10 (arm, grasp) fail: 2 arms x the cup's 5 grasps
+    cup_world.fail_probe["arm"] = {n: True for n in range(1, 11)}
     fetch(robot, cup_world)
     drives = [m.reference().arguments["pose"] for m in robot.calls("navigation", "going")]
     assert [round(p.position[0], 2) for p in drives] == [0.8, 0.7]
-    assert cup_world.object_in_hand("right") == "cup-1"  # 9th probe: right arm, back grasp
+    assert cup_world.object_in_hand("right") == "cup-1"  # 11th probe: right arm, back grasp
 
 
 def test_fetching_uses_the_next_grasp_then_the_other_arm(cup_world):
