@@ -34,7 +34,7 @@ from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
 from typing import Any
 
 from ._failures import CompositeFailure, PlanFailure
-from ._scheduling import block_until
+from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
 from ._task import Task, _require_task, as_coroutine, join_owned
 
@@ -267,7 +267,12 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
         raise
     else:
         if sup.alive:
-            await _end_branches(tasks, sup, loser_reason)
+            try:
+                await _end_branches(tasks, sup, loser_reason)
+            except BaseException:
+                # Cancelled while the losers died: the form did not complete.
+                outcome = Status.EVAPORATED
+                raise
         if sup.failure is not None:
             outcome = Status.FAILED
             raise sup.failure
@@ -292,19 +297,20 @@ async def _end_branches(tasks: list[Task], sup: _Supervisor, reason: str) -> Non
     for t in tasks:
         if t.state not in _DEAD:
             t.evaporate(reason, by=by)
-    pending: BaseException | None = None
     loop = asyncio.get_running_loop()
-    while sup.alive > 0:
-        fut = loop.create_future()
-        sup.waiter = fut
-        try:
-            await fut
-        except asyncio.CancelledError as exc:
-            pending = pending or exc
-        finally:
-            sup.waiter = None
-    if pending is not None:
-        raise pending
+    deferred = DeferredCancellation()
+    try:
+        while sup.alive > 0:
+            fut = loop.create_future()
+            sup.waiter = fut
+            try:
+                await fut
+            except asyncio.CancelledError as exc:
+                deferred.defer(exc)
+            finally:
+                sup.waiter = None
+    finally:
+        deferred.close()
 
 
 async def par(*aws: Branch) -> list[Any]:

@@ -20,7 +20,15 @@ Design notes, and where we differ from CRAM:
   structured concurrency on asyncio makes the inner-first order the natural one.
 - Evaporation is asyncio cancellation. Waiting for the children to die during teardown
   survives further cancellations (it keeps waiting and re-raises afterwards), so cleanup
-  cannot be cut short by a second evaporation.
+  cannot be cut short by a second evaporation. While it waits, an anyio cancel scope's
+  repeated cancellations are held off by a shielded anyio scope, so the wait sleeps
+  instead of spinning (:class:`~cpl._scheduling.DeferredCancellation`).
+- A task whose body has ended is tearing down: evaporating it then is a no-op and it ends
+  with its body's outcome once its children are dead.
+- Evaporation is a *native* asyncio cancellation, like ``Task.cancel`` or
+  ``asyncio.timeout``: it goes through ``anyio.CancelScope(shield=True)`` and abandons an
+  ``anyio.to_thread.run_sync`` call (the thread runs on). Cleanup that must finish, or a
+  thread that must be waited for, goes in ``cpl.shielded(...)``.
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from collections.abc import Awaitable, Callable, Coroutine, Generator
 from typing import Any
 
 from ._failures import Evaporated
-from ._scheduling import CURRENT_TASK, block_until
+from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
 
 __all__ = ["Task", "current_task", "spawn", "with_task"]
@@ -62,6 +70,7 @@ class Task:
         "_atask",
         "_aw",
         "_blocked_on",
+        "_body_done",
         "_children",
         "_constraints",
         "_entry",
@@ -107,6 +116,9 @@ class Task:
         self.kind: str = kind
         self._aw: Any = aw
         self._atask: asyncio.Task[None] | None = None
+        # Invariant: False until the body has returned, failed or been evaporated; then the
+        # outcome is fixed and only the children's teardown remains (evaporate is a no-op).
+        self._body_done: bool = False
         # Invariant: _state moves only along LEGAL_TRANSITIONS (checked in _set_state).
         self._state: Status = _CREATED
         self._status_fluent: Any = None  # created on first access of .status
@@ -330,8 +342,17 @@ class Task:
             self._close_aw()
         if outcome is not _SUCCEEDED:
             self.result = None
+        # The body has ended: from here on the outcome is decided and evaporate() is a
+        # no-op (there is nothing left to stop but the children, which teardown stops).
+        self._body_done = True
         if self._children:
-            await self._teardown_children()
+            try:
+                await self._teardown_children()
+            except asyncio.CancelledError as exc:
+                # Our asyncio task was cancelled from outside cpl while the children died
+                # (wait_dead waited through it): finish first, then let it propagate.
+                if reraise is None:
+                    reraise = exc
         self._finish(outcome)
         if reraise is not None:
             raise reraise
@@ -405,8 +426,13 @@ class Task:
         """Ask the task to end (CRAM's evaporate). Synchronous: it returns at once; join to
         wait for the end. A dead task, or a second request, is a no-op. The task's
         ``finally`` blocks run; its children are evaporated and waited for. ``by`` names who
-        asked (default: the path of the calling task)."""
-        if self._state in _DEAD or self.evaporation is not None:
+        asked (default: the path of the calling task).
+
+        A task whose body has already ended and that is waiting for its children's cleanup
+        is dying anyway: evaporating it then is a no-op, and it ends with its body's
+        outcome once its children are dead (as CRAM, whose teardown, once begun, runs to
+        the end)."""
+        if self._state in _DEAD or self.evaporation is not None or self._body_done:
             return
         if by is None:
             caller = CURRENT_TASK.get()
@@ -514,19 +540,21 @@ _FORM_KINDS = frozenset({"par", "pursue", "try-all", "par-loop", "partial-order"
 
 async def wait_dead(tasks: list[Task]) -> None:
     """Wait until every task in ``tasks`` is dead, surviving cancellation: a cancellation
-    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short)."""
-    pending: BaseException | None = None
-    for t in tasks:
-        while t._state not in _DEAD:
-            fut = t._add_waiter()
-            try:
-                await fut
-            except asyncio.CancelledError as exc:
-                pending = pending or exc
-            finally:
-                t._drop_waiter(fut)
-    if pending is not None:
-        raise pending
+    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short; see
+    :class:`DeferredCancellation` for anyio's repeated cancellations)."""
+    deferred = DeferredCancellation()
+    try:
+        for t in tasks:
+            while t._state not in _DEAD:
+                fut = t._add_waiter()
+                try:
+                    await fut
+                except asyncio.CancelledError as exc:
+                    deferred.defer(exc)
+                finally:
+                    t._drop_waiter(fut)
+    finally:
+        deferred.close()
 
 
 def current_task() -> Task | None:
