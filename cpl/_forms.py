@@ -33,12 +33,23 @@ import inspect
 from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
 from typing import Any
 
+from ._failure_handling import signal_failure
 from ._failures import CompositeFailure, PlanFailure
 from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
 from ._task import Task, _require_task, as_coroutine, join_owned
 
-__all__ = ["par", "par_loop", "partial_order", "pursue", "seq", "tag", "try_all", "try_in_order"]
+__all__ = [
+    "par",
+    "par_loop",
+    "partial_order",
+    "pursue",
+    "seq",
+    "tag",
+    "try_all",
+    "try_each_in_order",
+    "try_in_order",
+]
 
 _DEAD = frozenset({Status.SUCCEEDED, Status.FAILED, Status.EVAPORATED})
 
@@ -156,7 +167,31 @@ async def try_in_order(*aws: Branch) -> Any:
             _close(rest)
     if not failures:
         return None
-    raise CompositeFailure(failures)
+    composite = CompositeFailure(failures)
+    signal_failure(composite)
+    raise composite
+
+
+async def try_each_in_order(
+    values: Iterable[Any], fn: Callable[[Any], Awaitable[Any]]
+) -> Any:
+    """Call ``fn(value)`` for each value in turn, in the current task, until one succeeds;
+    return its result (CRAM's ``try-each-in-order``). Only :class:`~cpl.PlanFailure` moves
+    on to the next value; all failed: :class:`~cpl.CompositeFailure` with the failures in
+    order; no values: ``None``. ``values`` may be lazy (a generator, a ``cpl.LazyList``):
+    it is consumed only as far as needed.
+    """
+    failures: list[BaseException] = []
+    for value in values:
+        try:
+            return await fn(value)
+        except PlanFailure as failure:
+            failures.append(failure)
+    if not failures:
+        return None
+    composite = CompositeFailure(failures)
+    signal_failure(composite)
+    raise composite
 
 
 # ------------------------------------------------------------------ parallel forms
@@ -261,6 +296,8 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
             sup.waiter = fut
             await block_until(fut)
             sup.waiter = None
+    except GeneratorExit:
+        raise  # closed without running (an abandoned loop): nothing can be awaited
     except BaseException:
         outcome = Status.EVAPORATED
         await _end_branches(tasks, sup, f"{kind} was evaporated")
@@ -275,6 +312,7 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
                 raise
         if sup.failure is not None:
             outcome = Status.FAILED
+            signal_failure(sup.failure)
             raise sup.failure
         return sup.value
     finally:

@@ -38,6 +38,7 @@ import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
 from typing import Any
 
+from ._failure_handling import signal_failure
 from ._failures import Evaporated
 from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
@@ -331,6 +332,11 @@ class Task:
                 # not ours to swallow. The task fails with it; joiners re-raise it.
                 outcome = _FAILED
                 self.failure = exc
+        except GeneratorExit:
+            # The coroutine is being closed without running (an abandoned loop is torn
+            # down): no cleanup can await any more; just let it close.
+            self._close_aw()
+            raise
         except (KeyboardInterrupt, SystemExit) as exc:
             outcome = _FAILED
             self.failure = exc
@@ -418,6 +424,7 @@ class Task:
                 me.waiting_on = None
         if self._state is _FAILED:
             assert self.failure is not None
+            signal_failure(self.failure)  # the failure enters the joining task here
             raise self.failure
         return self.result
 
