@@ -7,6 +7,8 @@ evaporation (cancellation) always lets cleanup run. Everything public is here; t
 modules behind it are private.
 """
 
+from typing import Any
+
 from ._clock import Clock, ScaledClock, SystemClock, current_clock
 from ._eventlog import EventLog, load_events, tree_from_log
 from ._failure_handling import (
@@ -144,3 +146,32 @@ __all__ = [
     "with_task",
     "with_task_suspended",
 ]
+
+
+def _fixup_module_metadata(module_name: str, namespace: dict[str, Any]) -> None:
+    """Make public names report their public module (``cpl.PlanFailure``, not
+    ``cpl._failures.PlanFailure``) in reprs, tracebacks, pickles and event logs, as trio's
+    ``fixup_module_metadata`` does. Names keep working from the private module too."""
+    seen: set[int] = set()
+
+    def fix(name: str, obj: object) -> None:
+        if id(obj) in seen:
+            return
+        seen.add(id(obj))
+        mod = getattr(obj, "__module__", None)
+        if isinstance(mod, str) and mod.startswith(module_name + "._"):
+            try:
+                setattr(obj, "__module__", module_name)  # noqa: B010 (any object)
+            except (AttributeError, TypeError):  # a builtin or slot-less object
+                return
+            if isinstance(obj, type):
+                for attr_name, attr in vars(obj).items():
+                    if callable(attr) and getattr(attr, "__module__", None) == mod:
+                        fix(attr_name, attr)
+
+    for name in namespace.get("__all__", ()):
+        fix(name, namespace[name])
+
+
+_fixup_module_metadata(__name__, globals())
+del _fixup_module_metadata

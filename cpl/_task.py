@@ -36,12 +36,15 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._failure_handling import signal_failure
 from ._failures import Evaporated
 from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+
+if TYPE_CHECKING:
+    from ._fluents import Fluent
 
 __all__ = ["Task", "current_task", "spawn", "with_task"]
 
@@ -129,10 +132,18 @@ class Task:
         self._waiters: list[asyncio.Future[None]] | None = None  # woken on every change
         self._on_finish: Callable[[Task], None] | None = None  # a form's supervisor
         self._constraints: list[Task] | None = None  # partial order: start after these die
+        # Invariant: True from suspend() until the task is SUSPENDED or wake_up() withdraws
+        # the request; block_until suspends the task at its next checkpoint while set.
         self._suspend_requested: bool = False
+        # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
         self._resume: asyncio.Future[None] | None = None
+        # Invariant: the future the task awaits in block_until (its one checkpoint), else
+        # None. A suspend request resolves it early (a spurious wake-up the caller re-checks).
         self._blocked_on: asyncio.Future[Any] | None = None
         self._suspension_handlers: list[Callable[[], Any]] | None = None
+        # Invariant: the form nodes (par, pursue, ...) whose code runs in this task right
+        # now, innermost last; they follow this task into and out of SUSPENDED because
+        # they have no asyncio task of their own. Pushed and popped by the form.
         self._active_forms: list[Task] | None = None
         self.result: Any = None
         self.failure: BaseException | None = None
@@ -143,6 +154,9 @@ class Task:
         self.annotations: dict[str, Any] | None = annotations
         self.waiting_on: str | None = None
         self.parent: Task | None = None
+        # Invariant: the Run (root and instruments) this task belongs to, the same object
+        # for the whole tree: set on the root by top_level, inherited on adoption. None for
+        # a task not (yet) in a run: it then reports to no instrument.
         self._run: Any = None
         if _register:
             owner = parent if parent is not None else CURRENT_TASK.get()
@@ -214,9 +228,9 @@ class Task:
         return self._state
 
     @property
-    def status(self) -> Any:
+    def status(self) -> Fluent[Status]:
         """The status as a :class:`~cpl.Fluent` (created on first access)."""
-        fl = self._status_fluent
+        fl: Fluent[Status] | None = self._status_fluent
         if fl is None:
             from ._fluents import Fluent
 
@@ -275,6 +289,34 @@ class Task:
         if self.annotations is None:
             self.annotations = {}
         self.annotations[key] = value
+
+    # ------------------------------------------------------------------- form nodes
+    # A form node (kind par, pursue, ...) has no asyncio task of its own: the form's code,
+    # running in the owner's task, drives its status through these three methods.
+    def _begin_form(self) -> None:
+        self.start_time = asyncio.get_running_loop().time()
+        self._set_state(_RUNNING)
+
+    def _end_form(self, outcome: Status, value: Any, failure: BaseException | None) -> None:
+        self.end_time = asyncio.get_running_loop().time()
+        if outcome is _SUCCEEDED:
+            self.result = value
+        else:
+            self.failure = failure
+        if self._state is _SUSPENDED and outcome is _SUCCEEDED:
+            self._set_state(_RUNNING)
+        self._set_state(outcome)
+
+    def _push_form(self, node: Task) -> None:
+        """``node``, a form running in this task's code, is active (suspension follows it)."""
+        if self._active_forms is None:
+            self._active_forms = [node]
+        else:
+            self._active_forms.append(node)
+
+    def _pop_form(self, node: Task) -> None:
+        if self._active_forms is not None:
+            self._active_forms.remove(node)
 
     # ----------------------------------------------------------------------- starting
     def start(self) -> Task:

@@ -31,3 +31,14 @@ def mrun(checker: TransitionChecker) -> Any:
             assert checker.alive() == [], checker.alive()
 
     return go
+
+
+@pytest.fixture(autouse=True)
+def _fresh_run_history() -> Any:
+    """Each test starts and ends with an empty process-wide run history (the one store
+    behind ``cpl.task_tree(name)``), so no test reads another test's runs."""
+    from cpl._runtime import DEFAULT_HISTORY
+
+    DEFAULT_HISTORY.clear()
+    yield
+    DEFAULT_HISTORY.clear()
