@@ -9,6 +9,7 @@ keeps the last run of each *named* top level (CRAM's ``*top-level-task-trees*``)
 from __future__ import annotations
 
 import asyncio
+import inspect
 import weakref
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Iterable
@@ -99,7 +100,12 @@ async def top_level(
     Returns the plan's value or raises its failure (the same object), and returns only when
     every task it started is dead. Top levels do not nest (``RuntimeError``). If the caller
     is cancelled, the plan is evaporated and waited for, then the cancellation propagates.
+
+    Runs on asyncio only: under anyio use the asyncio backend (``anyio.run(main,
+    backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
+    ``docs/async_interop.md``).
     """
+    _require_asyncio("cpl.top_level", fn)
     if CURRENT_TASK.get() is not None:
         raise RuntimeError(
             "top-level calls cannot be nested: you are already inside cpl task "
@@ -166,6 +172,13 @@ def run(
     """
     if CURRENT_TASK.get() is not None:
         raise RuntimeError("cpl.run cannot be called from inside a cpl task; await the plan")
+    if _running_loop() is not None:
+        _close(fn)
+        raise RuntimeError(
+            "cpl.run starts its own event loop and cannot be called while one is running in "
+            "this thread (an asyncio application, anyio.run, a pytest-asyncio test): use "
+            "`await cpl.top_level(plan, ...)` there"
+        )
 
     def factory() -> asyncio.AbstractEventLoop:
         loop = asyncio.new_event_loop()
@@ -175,3 +188,35 @@ def run(
 
     with asyncio.Runner(debug=debug, loop_factory=factory) as runner:
         return runner.run(top_level(fn, *args, name=name, instruments=instruments, history=history))
+
+
+def _running_loop() -> asyncio.AbstractEventLoop | None:
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
+
+
+def _close(fn: Any) -> None:
+    if inspect.iscoroutine(fn):
+        fn.close()
+
+
+def _require_asyncio(what: str, fn: Any) -> None:
+    """Raise a clear error when awaited outside asyncio (trio, via anyio or not)."""
+    if _running_loop() is not None:
+        return
+    _close(fn)
+    library = "unknown"
+    try:
+        import sniffio
+
+        library = sniffio.current_async_library()
+    except Exception:  # sniffio missing or no async library detected
+        pass
+    raise RuntimeError(
+        f"{what} runs on asyncio only, but it was awaited without a running asyncio event "
+        f"loop (async library: {library}). cpl tasks are asyncio tasks: under anyio use "
+        "anyio.run(main, backend='asyncio'); the trio backend (and trio-asyncio) is not "
+        "supported"
+    )

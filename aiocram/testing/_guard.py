@@ -150,7 +150,9 @@ def _dump_in_loop(loop: asyncio.AbstractEventLoop) -> str:
     return _dump_trees()
 
 
-def call_with_deadline(fn: Callable[..., Any], *args: Any, deadline: float = DEFAULT_DEADLINE) -> Any:
+def call_with_deadline(
+    fn: Callable[..., Any], *args: Any, deadline: float = DEFAULT_DEADLINE
+) -> Any:
     """Call the synchronous ``fn(*args)`` in a daemon thread and return its value (or
     re-raise its exception); raise :class:`Hung` after ``deadline`` wall seconds.
 
