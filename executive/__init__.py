@@ -7,6 +7,7 @@ Everything public is importable from here; the modules behind it are private exc
 """
 
 from . import _location, _motions, events
+from ._blocking import BlockingProcessModule, CancelRequest
 from ._designator import (
     ActionDesignator,
     Designator,
@@ -57,6 +58,8 @@ builtin_rules.freeze()
 del _location, _motions
 
 __all__ = [
+    "BlockingProcessModule",
+    "CancelRequest",
     "ActionDesignator",
     "ActionGrounding",
     "Designator",

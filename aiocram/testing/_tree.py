@@ -17,7 +17,6 @@ __all__ = ["TreeLike", "as_tree", "assert_attempts", "assert_retried", "find_nod
 TreeLike = cpl.Task | cpl.TaskNode | str
 
 
-
 def as_tree(tree: TreeLike) -> cpl.TaskNode:
     """A snapshot of ``tree`` (a task, a snapshot, or a named top level's last run)."""
     if isinstance(tree, cpl.TaskNode):
@@ -104,7 +103,11 @@ def assert_attempts(
 
 
 def assert_retried(
-    tree: TreeLike, name: str, times: int, *, then: str | cpl.Status = "succeeded",
+    tree: TreeLike,
+    name: str,
+    times: int,
+    *,
+    then: str | cpl.Status = "succeeded",
     under: str | None = None,
 ) -> list[cpl.TaskNode]:
     """Assert that ``name`` failed ``times`` times and was retried, the last attempt ending
