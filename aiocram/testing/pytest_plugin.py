@@ -33,7 +33,7 @@ import cpl
 from cpl.testing import MockClock
 
 from ._checker import TransitionChecker
-from ._guard import DEFAULT_DEADLINE, run_guarded
+from ._guard import DEFAULT_DEADLINE, Hung, run_guarded
 
 if TYPE_CHECKING:
     from ._fakes import FakeRobot
@@ -60,11 +60,23 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 @pytest.fixture
 def cpl_checker() -> Iterator[TransitionChecker]:
-    """A run checker; the test fails at teardown on a task left alive or an illegal
-    status transition in any run it observed."""
+    """A run checker. The test fails on a task left alive or an illegal status transition
+    in any run it observed: checked when the test function returns (while an async test's
+    loop still holds its tasks) and again at teardown (runs left by fixtures)."""
     checker = TransitionChecker()
     yield checker
-    checker.check()
+    if not getattr(checker, "_failed_call", False):
+        checker.check()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Iterator[None]:
+    result = yield  # the test function's exception, if any, propagates from here
+    checker = getattr(item, "funcargs", {}).get("cpl_checker")
+    if isinstance(checker, TransitionChecker) and checker.problems():
+        checker._failed_call = True  # type: ignore[attr-defined]
+        checker.check()
+    return result
 
 
 @pytest.fixture
@@ -94,6 +106,9 @@ def cpl_run(cpl_checker: TransitionChecker, request: pytest.FixtureRequest) -> A
                 clock=clock if clock is not None else MockClock(),
                 deadline=deadline if deadline is not None else default_deadline,
             )
+        except Hung:
+            cpl_checker.forget_alive()  # the hang (with its tree) is the report
+            raise
         finally:
             cpl_checker.check()
 
