@@ -12,6 +12,7 @@ import pytest
 import cpl
 import executive
 import plans  # noqa: F401 - registers the action rules
+from aiocram.testing import run_guarded
 from cpl.testing import MockClock
 from executive import Pose, RuleSet, static_rules
 from executive.testing import FakeProcessModule, InMemoryWorld
@@ -58,7 +59,7 @@ class Robot:
             async with executive.environment(env):
                 return await fn(*args)
 
-        return cpl.run(main, clock=MockClock())
+        return run_guarded(cpl.top_level, main, clock=MockClock())  # a hang fails, with its tree
 
 
 def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.Designator:
