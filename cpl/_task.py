@@ -20,7 +20,15 @@ Design notes, and where we differ from CRAM:
   structured concurrency on asyncio makes the inner-first order the natural one.
 - Evaporation is asyncio cancellation. Waiting for the children to die during teardown
   survives further cancellations (it keeps waiting and re-raises afterwards), so cleanup
-  cannot be cut short by a second evaporation.
+  cannot be cut short by a second evaporation. While it waits, an anyio cancel scope's
+  repeated cancellations are held off by a shielded anyio scope, so the wait sleeps
+  instead of spinning (:class:`~cpl._scheduling.DeferredCancellation`).
+- A task whose body has ended is tearing down: evaporating it then is a no-op and it ends
+  with its body's outcome once its children are dead.
+- Evaporation is a *native* asyncio cancellation, like ``Task.cancel`` or
+  ``asyncio.timeout``: it goes through ``anyio.CancelScope(shield=True)`` and abandons an
+  ``anyio.to_thread.run_sync`` call (the thread runs on). Cleanup that must finish, or a
+  thread that must be waited for, goes in ``cpl.shielded(...)``.
 """
 
 from __future__ import annotations
@@ -28,11 +36,15 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ._failure_handling import signal_failure
 from ._failures import Evaporated
-from ._scheduling import CURRENT_TASK, block_until
+from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+
+if TYPE_CHECKING:
+    from ._fluents import Fluent
 
 __all__ = ["Task", "current_task", "spawn", "with_task"]
 
@@ -62,6 +74,7 @@ class Task:
         "_atask",
         "_aw",
         "_blocked_on",
+        "_body_done",
         "_children",
         "_constraints",
         "_entry",
@@ -107,6 +120,9 @@ class Task:
         self.kind: str = kind
         self._aw: Any = aw
         self._atask: asyncio.Task[None] | None = None
+        # Invariant: False until the body has returned, failed or been evaporated; then the
+        # outcome is fixed and only the children's teardown remains (evaporate is a no-op).
+        self._body_done: bool = False
         # Invariant: _state moves only along LEGAL_TRANSITIONS (checked in _set_state).
         self._state: Status = _CREATED
         self._status_fluent: Any = None  # created on first access of .status
@@ -116,10 +132,18 @@ class Task:
         self._waiters: list[asyncio.Future[None]] | None = None  # woken on every change
         self._on_finish: Callable[[Task], None] | None = None  # a form's supervisor
         self._constraints: list[Task] | None = None  # partial order: start after these die
+        # Invariant: True from suspend() until the task is SUSPENDED or wake_up() withdraws
+        # the request; block_until suspends the task at its next checkpoint while set.
         self._suspend_requested: bool = False
+        # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
         self._resume: asyncio.Future[None] | None = None
+        # Invariant: the future the task awaits in block_until (its one checkpoint), else
+        # None. A suspend request resolves it early (a spurious wake-up the caller re-checks).
         self._blocked_on: asyncio.Future[Any] | None = None
         self._suspension_handlers: list[Callable[[], Any]] | None = None
+        # Invariant: the form nodes (par, pursue, ...) whose code runs in this task right
+        # now, innermost last; they follow this task into and out of SUSPENDED because
+        # they have no asyncio task of their own. Pushed and popped by the form.
         self._active_forms: list[Task] | None = None
         self.result: Any = None
         self.failure: BaseException | None = None
@@ -130,6 +154,9 @@ class Task:
         self.annotations: dict[str, Any] | None = annotations
         self.waiting_on: str | None = None
         self.parent: Task | None = None
+        # Invariant: the Run (root and instruments) this task belongs to, the same object
+        # for the whole tree: set on the root by top_level, inherited on adoption. None for
+        # a task not (yet) in a run: it then reports to no instrument.
         self._run: Any = None
         if _register:
             owner = parent if parent is not None else CURRENT_TASK.get()
@@ -201,9 +228,9 @@ class Task:
         return self._state
 
     @property
-    def status(self) -> Any:
+    def status(self) -> Fluent[Status]:
         """The status as a :class:`~cpl.Fluent` (created on first access)."""
-        fl = self._status_fluent
+        fl: Fluent[Status] | None = self._status_fluent
         if fl is None:
             from ._fluents import Fluent
 
@@ -263,6 +290,34 @@ class Task:
             self.annotations = {}
         self.annotations[key] = value
 
+    # ------------------------------------------------------------------- form nodes
+    # A form node (kind par, pursue, ...) has no asyncio task of its own: the form's code,
+    # running in the owner's task, drives its status through these three methods.
+    def _begin_form(self) -> None:
+        self.start_time = asyncio.get_running_loop().time()
+        self._set_state(_RUNNING)
+
+    def _end_form(self, outcome: Status, value: Any, failure: BaseException | None) -> None:
+        self.end_time = asyncio.get_running_loop().time()
+        if outcome is _SUCCEEDED:
+            self.result = value
+        else:
+            self.failure = failure
+        if self._state is _SUSPENDED and outcome is _SUCCEEDED:
+            self._set_state(_RUNNING)
+        self._set_state(outcome)
+
+    def _push_form(self, node: Task) -> None:
+        """``node``, a form running in this task's code, is active (suspension follows it)."""
+        if self._active_forms is None:
+            self._active_forms = [node]
+        else:
+            self._active_forms.append(node)
+
+    def _pop_form(self, node: Task) -> None:
+        if self._active_forms is not None:
+            self._active_forms.remove(node)
+
     # ----------------------------------------------------------------------- starting
     def start(self) -> Task:
         """Start a CREATED task (a no-op if it already started). Returns the task."""
@@ -319,6 +374,11 @@ class Task:
                 # not ours to swallow. The task fails with it; joiners re-raise it.
                 outcome = _FAILED
                 self.failure = exc
+        except GeneratorExit:
+            # The coroutine is being closed without running (an abandoned loop is torn
+            # down): no cleanup can await any more; just let it close.
+            self._close_aw()
+            raise
         except (KeyboardInterrupt, SystemExit) as exc:
             outcome = _FAILED
             self.failure = exc
@@ -330,8 +390,17 @@ class Task:
             self._close_aw()
         if outcome is not _SUCCEEDED:
             self.result = None
+        # The body has ended: from here on the outcome is decided and evaporate() is a
+        # no-op (there is nothing left to stop but the children, which teardown stops).
+        self._body_done = True
         if self._children:
-            await self._teardown_children()
+            try:
+                await self._teardown_children()
+            except asyncio.CancelledError as exc:
+                # Our asyncio task was cancelled from outside cpl while the children died
+                # (wait_dead waited through it): finish first, then let it propagate.
+                if reraise is None:
+                    reraise = exc
         self._finish(outcome)
         if reraise is not None:
             raise reraise
@@ -397,6 +466,7 @@ class Task:
                 me.waiting_on = None
         if self._state is _FAILED:
             assert self.failure is not None
+            signal_failure(self.failure)  # the failure enters the joining task here
             raise self.failure
         return self.result
 
@@ -405,8 +475,13 @@ class Task:
         """Ask the task to end (CRAM's evaporate). Synchronous: it returns at once; join to
         wait for the end. A dead task, or a second request, is a no-op. The task's
         ``finally`` blocks run; its children are evaporated and waited for. ``by`` names who
-        asked (default: the path of the calling task)."""
-        if self._state in _DEAD or self.evaporation is not None:
+        asked (default: the path of the calling task).
+
+        A task whose body has already ended and that is waiting for its children's cleanup
+        is dying anyway: evaporating it then is a no-op, and it ends with its body's
+        outcome once its children are dead (as CRAM, whose teardown, once begun, runs to
+        the end)."""
+        if self._state in _DEAD or self.evaporation is not None or self._body_done:
             return
         if by is None:
             caller = CURRENT_TASK.get()
@@ -514,19 +589,21 @@ _FORM_KINDS = frozenset({"par", "pursue", "try-all", "par-loop", "partial-order"
 
 async def wait_dead(tasks: list[Task]) -> None:
     """Wait until every task in ``tasks`` is dead, surviving cancellation: a cancellation
-    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short)."""
-    pending: BaseException | None = None
-    for t in tasks:
-        while t._state not in _DEAD:
-            fut = t._add_waiter()
-            try:
-                await fut
-            except asyncio.CancelledError as exc:
-                pending = pending or exc
-            finally:
-                t._drop_waiter(fut)
-    if pending is not None:
-        raise pending
+    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short; see
+    :class:`DeferredCancellation` for anyio's repeated cancellations)."""
+    deferred = DeferredCancellation()
+    try:
+        for t in tasks:
+            while t._state not in _DEAD:
+                fut = t._add_waiter()
+                try:
+                    await fut
+                except asyncio.CancelledError as exc:
+                    deferred.defer(exc)
+                finally:
+                    t._drop_waiter(fut)
+    finally:
+        deferred.close()
 
 
 def current_task() -> Task | None:

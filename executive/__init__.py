@@ -22,9 +22,6 @@ from ._designator import (
 from ._environment import (
     Environment,
     Imagination,
-    ProbeResult,
-    ProjectionWorld,
-    WorldModel,
     current_environment,
     environment,
     with_process_modules,
@@ -44,12 +41,22 @@ from ._rules import (
     static_rules,
 )
 from ._solutions import ActionGrounding, MotionCommand, ObjectData
+from ._world import (
+    AABB,
+    ProbeResult,
+    ProjectionWorld,
+    SceneSetup,
+    WorldModel,
+    WorldProbes,
+    WorldQueries,
+)
 from .events import emit, subscribe
 from .failures import *  # noqa: F403
 from .failures import __all__ as _failure_names
 from .retry import (
     ListCursor,
     SolutionCursor,
+    retry_scope,
     retry_with_designator_solutions,
     retry_with_list_solutions,
 )
@@ -58,6 +65,7 @@ builtin_rules.freeze()
 del _location, _motions
 
 __all__ = [
+    "AABB",
     "BlockingProcessModule",
     "CancelRequest",
     "ActionDesignator",
@@ -80,7 +88,10 @@ __all__ = [
     "Imagination",
     "ProbeResult",
     "ProjectionWorld",
+    "SceneSetup",
     "WorldModel",
+    "WorldProbes",
+    "WorldQueries",
     "a",
     "action_of",
     "an",
@@ -99,6 +110,7 @@ __all__ = [
     "register_location_generator",
     "register_location_validator",
     "register_rule",
+    "retry_scope",
     "retry_with_designator_solutions",
     "retry_with_list_solutions",
     "rule",

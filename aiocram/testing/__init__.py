@@ -1,4 +1,5 @@
-"""Testing plans: the run checker, hang guards, task-tree assertions and fake robots.
+"""Testing plans: the run checker and hang guards (from :mod:`cpl.testing`), task-tree
+assertions and fake robots.
 
 The pytest fixtures built on these live in :mod:`aiocram.testing.pytest_plugin`
 (registered as a ``pytest11`` entry point). Importing this package imports ``cpl`` only;
@@ -9,23 +10,31 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ._checker import TransitionChecker
-from ._guard import DEFAULT_DEADLINE, Hung, call_with_deadline, run_guarded
+from cpl.testing import (
+    HangDetected,
+    MockClock,
+    TransitionChecker,
+    call_guarded,
+    run_app_guarded,
+    run_guarded,
+)
+
 from ._tree import as_tree, assert_attempts, assert_retried, find_nodes
 
 if TYPE_CHECKING:
     from ._fakes import FakeRobot
 
 __all__ = [
-    "DEFAULT_DEADLINE",
     "FakeRobot",
-    "Hung",
+    "HangDetected",
+    "MockClock",
     "TransitionChecker",
     "as_tree",
     "assert_attempts",
     "assert_retried",
-    "call_with_deadline",
+    "call_guarded",
     "find_nodes",
+    "run_app_guarded",
     "run_guarded",
 ]
 

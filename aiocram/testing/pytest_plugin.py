@@ -4,7 +4,7 @@ or ``pytest_plugins = ["aiocram.testing.pytest_plugin"]``).
 
 Fixtures:
 
-- ``cpl_checker``: a :class:`~aiocram.testing.TransitionChecker`; at teardown it fails the
+- ``cpl_checker``: a :class:`cpl.testing.TransitionChecker`; at teardown it fails the
   test if a task it saw is still alive or a status transition was illegal.
 - ``cpl_run``: ``cpl_run(plan, *args, name="test")`` runs a plan as a top level on a fresh
   ``MockClock`` loop with the checker, in a worker thread with a deadline (a hang fails
@@ -30,10 +30,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 import cpl
-from cpl.testing import MockClock
-
-from ._checker import TransitionChecker
-from ._guard import DEFAULT_DEADLINE, Hung, run_guarded
+from cpl.testing import HangDetected, MockClock, TransitionChecker, run_guarded
 
 if TYPE_CHECKING:
     from ._fakes import FakeRobot
@@ -47,6 +44,11 @@ __all__ = [
     "projected_robot",
     "projection_world",
 ]
+
+
+#: Wall seconds a ``cpl_run`` scenario may take by default (tests take milliseconds to
+#: seconds; this only bounds a hang). The ``cpl_deadline`` ini option overrides it.
+DEFAULT_DEADLINE = 60.0
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -66,7 +68,7 @@ def cpl_checker() -> Iterator[TransitionChecker]:
     checker = TransitionChecker()
     yield checker
     if not getattr(checker, "_failed_call", False):
-        checker.check()
+        checker.assert_clean()
 
 
 @pytest.hookimpl(wrapper=True)
@@ -75,15 +77,17 @@ def pytest_runtest_call(item: pytest.Item) -> Iterator[None]:
     checker = getattr(item, "funcargs", {}).get("cpl_checker")
     if isinstance(checker, TransitionChecker) and checker.problems():
         checker._failed_call = True  # type: ignore[attr-defined]
-        checker.check()
+        checker.assert_clean()
     return result
 
 
 @pytest.fixture
 def cpl_run(cpl_checker: TransitionChecker, request: pytest.FixtureRequest) -> Any:
     """``cpl_run(plan, *args, name="test", clock=None, deadline=None, instruments=(),
-    history=None)``: run ``plan(*args)`` as a checked top level on a fresh loop (default
-    clock: a new ``MockClock``), in a worker thread with a deadline."""
+    **top_level_kwargs)``: run ``plan(*args)`` as a checked top level on a fresh loop
+    (default clock: a new ``MockClock``), in a worker thread with a wall-clock deadline
+    (``cpl.testing.run_guarded``); ``top_level_kwargs``: ``history``, ``timeout``,
+    ``cleanup_timeout``."""
     default_deadline = float(request.config.getini("cpl_deadline"))
 
     def go(
@@ -93,24 +97,23 @@ def cpl_run(cpl_checker: TransitionChecker, request: pytest.FixtureRequest) -> A
         clock: cpl.Clock | None = None,
         deadline: float | None = None,
         instruments: Any = (),
-        history: cpl.RunHistory | None = None,
+        **top_level_kwargs: Any,
     ) -> Any:
-        async def main() -> Any:
-            return await cpl.top_level(
-                fn, *args, name=name, instruments=[cpl_checker, *instruments], history=history
-            )
-
         try:
             return run_guarded(
-                main,
+                fn,
+                *args,
+                name=name,
                 clock=clock if clock is not None else MockClock(),
-                deadline=deadline if deadline is not None else default_deadline,
+                instruments=[cpl_checker, *instruments],
+                wall_timeout=deadline if deadline is not None else default_deadline,
+                **top_level_kwargs,
             )
-        except Hung:
+        except HangDetected:
             cpl_checker.forget_alive()  # the hang (with its tree) is the report
             raise
         finally:
-            cpl_checker.check()
+            cpl_checker.assert_clean()
 
     return go
 
@@ -128,7 +131,7 @@ def cpl_top_level(cpl_checker: TransitionChecker) -> Any:
         try:
             return await cpl.top_level(fn, *args, instruments=[cpl_checker, *instruments], **kw)
         finally:
-            cpl_checker.check()
+            cpl_checker.assert_clean()
 
     return go
 

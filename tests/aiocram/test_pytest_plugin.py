@@ -177,7 +177,7 @@ def test_a_hung_plan_fails_at_its_deadline_with_the_task_tree(
     result.assert_outcomes(failed=1)
     result.stdout.fnmatch_lines(
         [
-            "*Hung: the scenario 'main' did not finish within 1.0 s (wall)*",
+            "*HangDetected: the run of 'stuck' did not end within 1.0 s of wall time*",
             "*waits-forever*",
         ]
     )

@@ -11,21 +11,18 @@ from typing import Any
 import pytest
 
 import cpl
-from aiocram.testing import (
-    Hung,
+from aiocram.testing import as_tree, assert_attempts, assert_retried, find_nodes
+from cpl.testing import (
+    HangDetected,
+    MockClock,
     TransitionChecker,
-    as_tree,
-    assert_attempts,
-    assert_retried,
-    call_with_deadline,
-    find_nodes,
-    run_guarded,
+    call_guarded,
+    run_app_guarded,
 )
-from cpl.testing import MockClock
 
 
 def guarded_threads() -> list[threading.Thread]:
-    return [t for t in threading.enumerate() if t.name == "aiocram-guarded-run" and t.is_alive()]
+    return [t for t in threading.enumerate() if t.name == "cpl-run-guarded" and t.is_alive()]
 
 
 def test_run_guarded_returns_the_value_and_reraises_the_failure() -> None:
@@ -36,9 +33,9 @@ def test_run_guarded_returns_the_value_and_reraises_the_failure() -> None:
     async def bad() -> None:
         raise KeyError("boom")
 
-    assert run_guarded(ok, 21, clock=MockClock()) == 42
+    assert run_app_guarded(ok, 21, clock=MockClock()) == 42
     with pytest.raises(KeyError, match="boom"):
-        run_guarded(bad)
+        run_app_guarded(bad)
 
 
 def test_run_guarded_stops_a_livelocked_loop_and_its_thread() -> None:
@@ -56,10 +53,10 @@ def test_run_guarded_stops_a_livelocked_loop_and_its_thread() -> None:
     async def plan() -> None:
         await cpl.top_level(cpl.par(cpl.tag("spinner", spin()), cpl.sleep(5)), name="spin")
 
-    with pytest.raises(Hung) as info:
-        run_guarded(plan, clock=MockClock(), deadline=0.5)
-    assert "did not finish within 0.5 s" in str(info.value)
-    assert "spinner" in info.value.dump  # the task tree at the deadline
+    with pytest.raises(HangDetected) as info:
+        run_app_guarded(plan, clock=MockClock(), wall_timeout=0.5)
+    assert "did not end within 0.5 s" in str(info.value)
+    assert "spinner" in info.value.tree  # the task tree at the deadline
     for _ in range(100):  # bounded: the stopped thread ends promptly
         if len(guarded_threads()) <= before:
             break
@@ -82,22 +79,22 @@ def test_run_guarded_bounds_a_stuck_shutdown() -> None:
         asyncio.get_running_loop().create_task(stubborn())
         return "returned"
 
-    with pytest.raises(Hung):
-        run_guarded(main, deadline=0.5)
+    with pytest.raises(HangDetected):
+        run_app_guarded(main, wall_timeout=0.5)
 
 
 def test_run_guarded_rejects_bad_arguments() -> None:
     with pytest.raises(TypeError, match="async callable"):
-        run_guarded("not callable")  # type: ignore[arg-type]
+        run_app_guarded("not callable")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="positive"):
-        run_guarded(asyncio.sleep, 0, deadline=0)
+        run_app_guarded(asyncio.sleep, 0, wall_timeout=0)
 
 
-def test_call_with_deadline() -> None:
-    assert call_with_deadline(sum, [1, 2, 3]) == 6
+def test_call_guarded() -> None:
+    assert call_guarded(sum, [1, 2, 3]) == 6
     release = threading.Event()
-    with pytest.raises(Hung, match=r"did not return within 0\.2 s"):
-        call_with_deadline(release.wait, 10.0, deadline=0.2)
+    with pytest.raises(HangDetected, match=r"did not return within 0\.2 s"):
+        call_guarded(release.wait, 10.0, wall_timeout=0.2)
     release.set()
 
 
@@ -109,7 +106,7 @@ def test_checker_reports_alive_tasks_and_illegal_transitions() -> None:
 
     cpl.run(main, instruments=[checker], clock=MockClock())
     assert checker.problems() == []
-    checker.check()
+    checker.assert_clean()
     assert {path for path, _, _ in checker.transitions} == {("main",), ("main", "child")}
 
     class Ghost:
@@ -126,7 +123,7 @@ def test_checker_reports_alive_tasks_and_illegal_transitions() -> None:
         "task left alive: x/ghost (RUNNING, nothing)",
     ]
     with pytest.raises(AssertionError, match="cpl run checker"):
-        checker.check()
+        checker.assert_clean()
     assert checker.forget_alive() == [ghost] and checker.alive() == []
 
 

@@ -1,7 +1,7 @@
 """The anyio / asyncio interop contract of docs/async_interop.md, case by case.
 
-Every scenario runs through a hang guard (``cpl_run`` or ``run_guarded`` /
-``call_with_deadline``): a cleanup that spins or livelocks fails the test with the task
+Every scenario runs through a hang guard (``cpl_run``, ``run_app_guarded`` or
+``call_guarded``): a cleanup that spins or livelocks fails the test with the task
 tree instead of freezing the suite. Each contract point is tested in both directions where
 it has two (anyio inside cpl, cpl inside anyio).
 """
@@ -18,14 +18,7 @@ import anyio
 import pytest
 
 import cpl
-from aiocram.testing import TransitionChecker, call_with_deadline, run_guarded
-from cpl.testing import MockClock
-
-ISSUE_18 = pytest.mark.xfail(
-    reason="issue 18: an anyio cancel scope around a form whose branches clean up re-delivers "
-    "its cancellation on every loop step; cpl's cleanup waits livelock on MockClock",
-    strict=False,
-)
+from cpl.testing import MockClock, TransitionChecker, call_guarded, run_app_guarded
 
 
 def children(task: cpl.Task) -> dict[str, cpl.Status]:
@@ -124,7 +117,7 @@ def test_move_on_after_around_a_form_evaporates_its_branches(clock: str, cpl_run
     assert sorted(cleaned) == ["a", "b"]
 
 
-@pytest.mark.parametrize("clock", [pytest.param("mock", marks=ISSUE_18), "system"])
+@pytest.mark.parametrize("clock", ["mock", "system"])
 def test_move_on_after_around_a_form_whose_branch_cleans_up_awaiting(
     clock: str, cpl_run: Any
 ) -> None:
@@ -429,7 +422,7 @@ def test_top_levels_inside_an_anyio_task_group(cpl_run: Any) -> None:
             tg.cancel_scope.cancel()
         return sorted(cleaned)
 
-    assert run_guarded(app, clock=MockClock()) == ["p1", "p2"]
+    assert run_app_guarded(app, clock=MockClock()) == ["p1", "p2"]
 
 
 # ---------------------------------------------------------------------------- embedding
@@ -466,12 +459,12 @@ def test_top_level_embedded_in_a_running_asyncio_application() -> None:
         return res, await srv
 
     checker = TransitionChecker()
-    res, ticks = run_guarded(app, clock=MockClock())
+    res, ticks = run_app_guarded(app, clock=MockClock())
     assert res == "short done"
     assert ticks >= 4  # the server ran while the plan did (2 s of plan time)
     assert sorted(log) == ["long finally", "short finally"]
     assert len(checker.tasks) == 2
-    checker.check()  # both plans dead, every transition legal
+    checker.assert_clean()  # both plans dead, every transition legal
 
 
 def test_top_level_inside_anyio_run_on_asyncio() -> None:
@@ -481,7 +474,7 @@ def test_top_level_inside_anyio_run_on_asyncio() -> None:
     async def main() -> Any:
         return await cpl.top_level(plan)
 
-    assert call_with_deadline(anyio.run, main, deadline=20.0) == ["a", "b"]
+    assert call_guarded(anyio.run, main, wall_timeout=20.0) == ["a", "b"]
 
 
 def test_trio_backend_is_refused_with_a_clear_error() -> None:
@@ -494,7 +487,7 @@ def test_trio_backend_is_refused_with_a_clear_error() -> None:
         await cpl.top_level(plan())  # a coroutine: closed by the refusal, no warning
 
     with pytest.raises(RuntimeError, match=r"asyncio only.*trio.*backend='asyncio'"):
-        call_with_deadline(functools.partial(anyio.run, main, backend="trio"), deadline=20.0)
+        call_guarded(functools.partial(anyio.run, main, backend="trio"), wall_timeout=20.0)
 
 
 def test_cpl_run_inside_a_running_loop_tells_to_await_top_level() -> None:
@@ -505,7 +498,7 @@ def test_cpl_run_inside_a_running_loop_tells_to_await_top_level() -> None:
         cpl.run(plan())
 
     with pytest.raises(RuntimeError, match=r"await cpl.top_level"):
-        call_with_deadline(anyio.run, main, deadline=20.0)
+        call_guarded(anyio.run, main, wall_timeout=20.0)
 
 
 # ------------------------------------------------------ anyio primitives feeding fluents

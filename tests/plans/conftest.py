@@ -9,11 +9,9 @@ from typing import Any
 
 import pytest
 
-import cpl
 import executive
 import plans  # noqa: F401 - registers the action rules
-from aiocram.testing import run_guarded
-from cpl.testing import MockClock
+from cpl.testing import MockClock, run_guarded
 from executive import Pose, RuleSet, static_rules
 from executive.testing import FakeProcessModule, InMemoryWorld
 
@@ -59,7 +57,7 @@ class Robot:
             async with executive.environment(env):
                 return await fn(*args)
 
-        return run_guarded(cpl.top_level, main, clock=MockClock())  # a hang fails, with its tree
+        return run_guarded(main, clock=MockClock())  # a hang fails, with its task tree
 
 
 def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.Designator:
