@@ -9,6 +9,7 @@ keeps the last run of each *named* top level (CRAM's ``*top-level-task-trees*``)
 from __future__ import annotations
 
 import asyncio
+import inspect
 import logging
 import weakref
 from collections import OrderedDict
@@ -111,7 +112,12 @@ async def top_level(
     is raised. It cannot hang: if the cleanup does not end in time either, ``RunTimeout``
     is raised anyway and names the tasks still alive (``stuck``); they are abandoned (a
     task that never awaits cannot be stopped by anyone on asyncio).
+
+    Runs on asyncio only: under anyio use the asyncio backend (``anyio.run(main,
+    backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
+    ``docs/async_interop.md``).
     """
+    _require_asyncio("cpl.top_level", fn)
     _check_timeouts(timeout, cleanup_timeout)
     if CURRENT_TASK.get() is not None:
         raise RuntimeError(
@@ -191,6 +197,13 @@ def run(
     """
     if CURRENT_TASK.get() is not None:
         raise RuntimeError("cpl.run cannot be called from inside a cpl task; await the plan")
+    if _running_loop() is not None:
+        _close(fn)
+        raise RuntimeError(
+            "cpl.run starts its own event loop and cannot be called while one is running in "
+            "this thread (an asyncio application, anyio.run, a pytest-asyncio test): use "
+            "`await cpl.top_level(plan, ...)` there"
+        )
     _check_timeouts(timeout, cleanup_timeout)
 
     def factory() -> asyncio.AbstractEventLoop:
@@ -283,3 +296,35 @@ async def _wait_dead_until(task: Task, deadline: float) -> bool:
 def _wake(fut: asyncio.Future[None]) -> None:
     if not fut.done():
         fut.set_result(None)
+
+
+def _running_loop() -> asyncio.AbstractEventLoop | None:
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
+
+
+def _close(fn: Any) -> None:
+    if inspect.iscoroutine(fn):
+        fn.close()
+
+
+def _require_asyncio(what: str, fn: Any) -> None:
+    """Raise a clear error when awaited outside asyncio (trio, via anyio or not)."""
+    if _running_loop() is not None:
+        return
+    _close(fn)
+    library = "unknown"
+    try:
+        import sniffio
+
+        library = sniffio.current_async_library()
+    except Exception:  # sniffio missing or no async library detected
+        pass
+    raise RuntimeError(
+        f"{what} runs on asyncio only, but it was awaited without a running asyncio event "
+        f"loop (async library: {library}). cpl tasks are asyncio tasks: under anyio use "
+        "anyio.run(main, backend='asyncio'); the trio backend (and trio-asyncio) is not "
+        "supported"
+    )

@@ -1,4 +1,6 @@
-"""Shared test helpers: run a plan on a mock clock with a transition checker."""
+"""Shared test setup: pytester, aiocram's own pytest plugin (the ``pytest11`` entry point
+registers it when the package is installed; naming it here keeps the suite working from a
+source checkout, and is a no-op otherwise), and a fresh run history per test."""
 
 from __future__ import annotations
 
@@ -6,31 +8,24 @@ from typing import Any
 
 import pytest
 
-from cpl.testing import MockClock, TransitionChecker, run_guarded
+from cpl.testing import TransitionChecker
+
+pytest_plugins = ["pytester", "aiocram.testing.pytest_plugin"]
 
 
 @pytest.fixture
-def checker() -> TransitionChecker:
-    return TransitionChecker()
+def checker(cpl_checker: TransitionChecker) -> TransitionChecker:
+    """The plugin's ``cpl_checker`` (the name the project's older tests use)."""
+    return cpl_checker
 
 
 @pytest.fixture
-def mrun(checker: TransitionChecker) -> Any:
-    """``mrun(fn, *args, name=...)``: cpl.run on a MockClock, guarded against hangs (a run
-    that does not end within 60 s of wall time fails with the task tree); afterwards
-    asserts that no task is alive and every transition was legal."""
-
-    def go(fn: Any, *args: Any, name: str | None = "test", **kw: Any) -> Any:
-        kw.setdefault("clock", MockClock())
-        try:
-            return run_guarded(
-                fn, *args, name=name, instruments=[checker], wall_timeout=60.0, **kw
-            )
-        finally:
-            assert checker.illegal == [], checker.illegal
-            assert checker.alive() == [], checker.alive()
-
-    return go
+def mrun(cpl_run: Any) -> Any:
+    """The plugin's ``cpl_run`` (the name the project's older tests use):
+    ``mrun(fn, *args, name=...)`` runs on a MockClock in a worker thread with a wall-clock
+    deadline (a hang fails with the task tree), then asserts that no task is alive and
+    every transition was legal."""
+    return cpl_run
 
 
 @pytest.fixture(autouse=True)
