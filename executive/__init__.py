@@ -7,6 +7,7 @@ Everything public is importable from here; the modules behind it are private exc
 """
 
 from . import _location, _motions, events
+from ._blocking import BlockingProcessModule, CancelRequest
 from ._designator import (
     ActionDesignator,
     Designator,
@@ -65,6 +66,8 @@ del _location, _motions
 
 __all__ = [
     "AABB",
+    "BlockingProcessModule",
+    "CancelRequest",
     "ActionDesignator",
     "ActionGrounding",
     "Designator",
