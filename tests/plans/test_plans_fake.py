@@ -125,9 +125,9 @@ def test_picking_up_sequence_and_attachment(cup_world):
     assert types == ["moving-tcp"] * 5
     attached = [e for e in cup_world.events if isinstance(e, ObjectAttached)]
     assert attached[0].arm == "left" and cup_world.object_in_hand("left") == "cup-1"
-    expected = knowledge.grasp_poses(
-        "cup", "back", action.reference().arguments["object_designator"]["transform"]
-    )
+    arguments = action.reference().arguments
+    assert isinstance(arguments, dict)
+    expected = knowledge.grasp_poses("cup", "back", arguments["object_designator"]["transform"])
     assert robot.calls("arms")[4].reference().arguments["left"] == expected[4]
 
 
@@ -250,7 +250,7 @@ def test_searching_gives_up_after_nine_retries(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectNowhereToBeFound):
         robot.run(search)
     assert counts["search"] == 9 and counts["search-torso"] == 10
@@ -306,7 +306,7 @@ def test_fetching_gives_up_after_exactly_ten_relocations(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectUnfetchable):
         robot.run(go)
     assert counts["relocations"] == 10
@@ -354,7 +354,7 @@ def test_delivering_counts(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectUndeliverable):
         robot.run(go)
     assert counts["deliver-targets"] == 2

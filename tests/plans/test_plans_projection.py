@@ -94,7 +94,7 @@ def test_one_bowl_transport(mrun):
     assert on_island(world, "bowl-1") and world.attachments == {}
 
 
-def settled_moves(world, names, steps: int = 300) -> dict:
+def settled_moves(world, names, steps: int = 300) -> dict[str, float]:
     """How far (m) each object moves in ``steps`` more physics steps of the whole world."""
     import pybullet as pb
 

@@ -312,8 +312,10 @@ def test_next_solution_reuses_the_costmap(world: World) -> None:
         times, out, cur = [], [first], d
         for _ in range(20):
             t0 = time.perf_counter()
-            cur = cur.next_solution()
+            nxt = cur.next_solution()
             times.append(time.perf_counter() - t0)
+            assert nxt is not None
+            cur = nxt
             out.append(cur.reference())
         return out, times
 
@@ -325,7 +327,12 @@ def test_next_solution_reuses_the_costmap(world: World) -> None:
 
 def test_next_different_solution(world: World) -> None:
     d = a.location(("side", "left"), on=SINK)
-    p, q = run(world, lambda: (d.reference(), d.next_different_solution(0.2).reference()))
+    def two() -> tuple[Pose, Pose]:
+        nxt = d.next_different_solution(0.2)
+        assert nxt is not None
+        return d.reference(), nxt.reference()
+
+    p, q = run(world, two)
     assert math.dist(p.position, q.position) > 0.2
 
 
