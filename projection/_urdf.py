@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
+from executive import kitchen
 from projection._objects import OBJECT_TYPES, ObjectType, Shape
 
 __all__ = [
@@ -292,8 +293,8 @@ _WALLS = {
     "kitchen_wall_south": (_span((-2.00, -1.70, 0.0), (2.00, -1.60, 2.0)),),
     "kitchen_wall_north": (_span((-2.00, 3.00, 0.0), (2.00, 3.10, 2.0)),),
 }
-DRAWER_LINK = "sink_area_left_upper_drawer_main"
-DRAWER_JOINT = "sink_area_left_upper_drawer_main_joint"
+DRAWER_LINK = kitchen.DRAWER_LINK
+DRAWER_JOINT = kitchen.DRAWER_JOINT
 DRAWER_TRAVEL = 0.48
 
 #: Axis-aligned boxes of the kitchen in the map frame: link -> ((lo xyz), (hi xyz)) pieces.
@@ -301,11 +302,11 @@ DRAWER_TRAVEL = 0.48
 KITCHEN_BOXES: Mapping[str, tuple[tuple[Vec3, Vec3], ...]] = MappingProxyType(
     {
         "sink_area": _SINK,
-        "sink_area_surface": _SINK_SURFACE,
+        kitchen.SINK_SURFACE: _SINK_SURFACE,
         DRAWER_LINK: _DRAWER,
-        "sink_area_left_upper_drawer_handle": _HANDLE,
+        kitchen.DRAWER_HANDLE: _HANDLE,
         "kitchen_island": _ISLAND,
-        "kitchen_island_surface": _ISLAND_SURFACE,
+        kitchen.ISLAND_SURFACE: _ISLAND_SURFACE,
         **_WALLS,
     }
 )
@@ -338,19 +339,19 @@ def kitchen_urdf() -> str:
     """The kitchen: one fixed-base body rooted at the map origin."""
     colours = {
         "sink_area": _WOOD,
-        "sink_area_surface": _TOP,
+        kitchen.SINK_SURFACE: _TOP,
         DRAWER_LINK: _WOOD,
-        "sink_area_left_upper_drawer_handle": _DARK,
+        kitchen.DRAWER_HANDLE: _DARK,
         "kitchen_island": _WOOD,
-        "kitchen_island_surface": _TOP,
+        kitchen.ISLAND_SURFACE: _TOP,
     }
     parents = {
         "sink_area": "kitchen_root",
-        "sink_area_surface": "sink_area",
+        kitchen.SINK_SURFACE: "sink_area",
         DRAWER_LINK: "sink_area",
-        "sink_area_left_upper_drawer_handle": DRAWER_LINK,
+        kitchen.DRAWER_HANDLE: DRAWER_LINK,
         "kitchen_island": "kitchen_root",
-        "kitchen_island_surface": "kitchen_island",
+        kitchen.ISLAND_SURFACE: "kitchen_island",
     }
     origins = {name: _centre(pieces) for name, pieces in KITCHEN_BOXES.items()}
     links = [Link("kitchen_root", (), 1.0)]
