@@ -179,7 +179,10 @@ class Costmap:
     orientations: list[OrientationFn] = field(default_factory=list)
     empty_reason: str | None = None
     _values: Array | None = None
+    #: the cumulative sum over the positive cells only (``_cells``, ascending): the
+    #: same sums as over the whole grid (adding a zero is exact), ~20x fewer to take
     _cdf: Array | None = None
+    _cells: Array | None = None
     _max: float = 0.0
 
     # ---------------------------------------------------------------- composition
@@ -245,7 +248,8 @@ class Costmap:
         if self.empty_reason is None:
             self.empty_reason = empty_reason
         self._values = m.reshape(spec.height, spec.width)
-        self._cdf = np.cumsum(m)
+        self._cells = np.flatnonzero(m)
+        self._cdf = np.cumsum(m[self._cells])
         self._max = float(m.max()) if m.size else 0.0
         return self._values
 
@@ -339,13 +343,14 @@ class Costmap:
     def sample_xy(self, rng: np.random.Generator) -> tuple[float, float]:
         """One cell corner drawn from the normalised map. Empty map -> ValueError."""
         self.values()
-        cdf = self._cdf
-        assert cdf is not None
-        total = cdf[-1]
+        cdf, cells = self._cdf, self._cells
+        assert cdf is not None and cells is not None
+        total = cdf[-1] if cdf.size else 0.0
         if not total > 0.0:
             raise ValueError(f"the costmap is empty: {self.empty_reason}")
-        idx = int(cdf.searchsorted(rng.random() * total, side="right"))
-        idx = min(idx, cdf.size - 1)
+        k = int(cdf.searchsorted(rng.random() * total, side="right"))
+        # past the last positive cell: the grid's last cell, as a whole-grid cdf gives
+        idx = int(cells[k]) if k < cells.size else self.spec.width * self.spec.height - 1
         row, col = divmod(idx, self.spec.width)
         s = self.spec
         return s.origin[0] + col * s.resolution, s.origin[1] + row * s.resolution
@@ -609,8 +614,9 @@ def _clear_rays(
             part = todo[k : k + batch]
             res = pb.rayTestBatch(cur[part].tolist(), ends[part].tolist(), physicsClientId=client)
             # vectorised per-ray verdicts (this loop is the visibility costmap's hot spot)
-            body = np.fromiter((r[0] for r in res), dtype=int, count=len(res))
-            frac = np.fromiter((r[2] for r in res), dtype=float, count=len(res))
+            columns = tuple(zip(*res))  # (body, link, fraction, position, normal) columns
+            body = np.asarray(columns[0], dtype=int)
+            frac = np.asarray(columns[2], dtype=float)
             seg = ends[part] - cur[part]
             length = np.sqrt((seg * seg).sum(axis=1))
             done = (body < 0) | ((1.0 - frac) * length <= tolerance)
@@ -618,7 +624,7 @@ def _clear_rays(
             on = ~done & np.isin(body, excluded)
             if on.any():
                 idx = part[on]
-                hit = np.asarray([res[j][3] for j in np.nonzero(on)[0]], dtype=float)
+                hit = np.asarray(columns[3], dtype=float)[on]
                 step = seg[on] / np.maximum(length[on], 1e-9)[:, None] * 1e-3
                 cur[idx] = hit + step
                 again.append(idx)
