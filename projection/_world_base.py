@@ -437,7 +437,7 @@ class WorldBase:
         states = pb.getJointStates(
             self._robot if body is None else body, indices, physicsClientId=self._c
         )
-        return tuple(float(s[0]) for s in states)
+        return tuple([s[0] for s in states])  # PyBullet gives Python floats
 
     def _set_joints(self, indices: Sequence[int], values: Sequence[float],
                     body: int | None = None) -> None:
