@@ -36,12 +36,12 @@ def _rotation_type() -> type[Rotation]:
 
 def _vector(values: Iterable[float], n: int, what: str) -> tuple[float, ...]:
     try:
-        out = tuple(float(v) for v in values)
+        out = tuple(map(float, values))
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{what} must be {n} numbers, got {values!r}") from exc
     if len(out) != n:
         raise ValueError(f"{what} must have {n} components, got {len(out)}: {out!r}")
-    if not all(math.isfinite(v) for v in out):
+    if not all(map(math.isfinite, out)):
         raise ValueError(f"{what} must be finite, got {out!r}")
     return out
 
