@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -31,7 +31,7 @@ def _rotation_type() -> type[Rotation]:
     projection``, and most runs never build a ``Rotation``."""
     from scipy.spatial.transform import Rotation
 
-    return Rotation
+    return cast("type[Rotation]", Rotation)
 
 
 def _vector(values: Iterable[float], n: int, what: str) -> tuple[float, ...]:
