@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import difflib
 import pickle
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from projection._names import UnknownName
 
 
 @pytest.fixture(scope="module")
-def world() -> World:
+def world() -> Iterator[World]:
     w = World(seed=0)
     yield w
     w.close()
@@ -29,9 +30,9 @@ def test_unknown_joint_and_link_hints_are_built_only_when_read(
     calls = []
     real = difflib.get_close_matches
 
-    def counting(*args: object, **kw: object) -> list[str]:
+    def counting(*args: Any, **kw: Any) -> list[str]:
         calls.append(args)
-        return real(*args, **kw)  # type: ignore[arg-type]
+        return real(*args, **kw)
 
     monkeypatch.setattr(difflib, "get_close_matches", counting)
     for _ in range(50):  # a hot loop that expects misses pays no hint
@@ -75,18 +76,30 @@ def _pair(build: Callable[[cm.Costmap], None]) -> tuple[cm.Costmap, cm.Costmap]:
     return bounded, unbounded
 
 
+def _reachable(c: cm.Costmap) -> None:
+    cm.add_reachable_for(c, [(1.0, 0.5, 0.9)])
+
+
+def _slots_on_table(c: cm.Costmap) -> None:
+    cm.add_on_box(c, "table", (-1.2, 0.2, 0.0), (-0.55, 2.4, 0.9))
+    cm.add_slots(c, "table", (-1.2, 0.2, 0.0), (-0.55, 2.4, 0.9), "bowl", 2)
+
+
+def _range_in_demo_area(c: cm.Costmap) -> None:
+    cm.add_range(c, (0.3, 0.3), 1.5, False)
+    cm.add_demo_area(c)
+
+
+def _near(c: cm.Costmap) -> None:
+    cm.add_near(c, (2.0, -1.0), 0.2, 0.03, 0.1, 0.01)
+
+
+def _left_of(c: cm.Costmap) -> None:
+    cm.add_relation(c, "left-of", (1.0, 1.0), ((0.5, 0.0), (2.0, 2.0)), "front")
+
+
 @pytest.mark.parametrize(
-    "build",
-    [
-        lambda c: cm.add_reachable_for(c, [(1.0, 0.5, 0.9)]),
-        lambda c: (
-            cm.add_on_box(c, "table", (-1.2, 0.2, 0.0), (-0.55, 2.4, 0.9)),
-            cm.add_slots(c, "table", (-1.2, 0.2, 0.0), (-0.55, 2.4, 0.9), "bowl", 2),
-        ),
-        lambda c: (cm.add_range(c, (0.3, 0.3), 1.5, False), cm.add_demo_area(c)),
-        lambda c: cm.add_near(c, (2.0, -1.0), 0.2, 0.03, 0.1, 0.01),
-        lambda c: cm.add_relation(c, "left-of", (1.0, 1.0), ((0.5, 0.0), (2.0, 2.0)), "front"),
-    ],
+    "build", [_reachable, _slots_on_table, _range_in_demo_area, _near, _left_of]
 )
 def test_bounded_factors_give_the_whole_grids_values_and_samples(
     build: Callable[[cm.Costmap], None],
