@@ -189,6 +189,7 @@ def _quick_args(script: str) -> tuple[str, ...]:
     return {
         "cpl_overhead.py": ("--sizes", "1000", "--repeat", "1", "--waiters", "1", "100"),
         "blocking_driver.py": ("--rounds", "1"),
+        "executive_perform.py": ("2000",),
         "projection_ops.py": ("--reps", "50"),
         "projection_costmaps.py": ("--reps", "50"),
         "projection_demo.py": ("--seeds", "1"),

@@ -205,11 +205,15 @@ class Designator:
         "_index",
         "_parent",
         "_props",
+        "_repr",
         "_stream",
         "_successor",
     )
 
     _props: tuple[Pair, ...]
+    #: the repr, cached once computed when every property value is immutable (see
+    #: :func:`_stable`): the event log renders each designator at every task event
+    _repr: str | None
     _stream: _SolutionStream | None
     _index: int
     _data: Any
@@ -422,8 +426,14 @@ class Designator:
         return f"{self.kind} {text}{more}".rstrip() if text else f"{self.kind} (no properties)"
 
     def __repr__(self) -> str:
+        cached = self._repr
+        if cached is not None:
+            return cached
         props = " ".join(f"({k} {_fmt(v)})" for k, v in self._props)
-        return f"<{self.article} {self.kind}{' ' + props if props else ''}>"
+        text = f"<{self.article} {self.kind}{' ' + props if props else ''}>"
+        if all(_stable(v) for _, v in self._props):
+            object.__setattr__(self, "_repr", text)
+        return text
 
     def __rich__(self) -> Text:
         from rich.text import Text
@@ -445,6 +455,19 @@ class Designator:
         return text
 
 
+_STABLE_TYPES: Final = (str, int, float, bool, Pose, Transform)
+
+
+def _stable(value: Any) -> bool:
+    """Whether ``value``'s display can never change: None, a number, a string, a pose, or
+    a designator or tuple of such (designators are immutable)."""
+    if value is None or isinstance(value, _STABLE_TYPES):
+        return True
+    if isinstance(value, Designator):
+        return all(_stable(v) for _, v in value._props)
+    return type(value) is tuple and all(_stable(v) for v in value)
+
+
 def _fmt_short(value: Any) -> str:
     if isinstance(value, Designator):
         return f"<{value.short()}>"
@@ -454,6 +477,7 @@ def _fmt_short(value: Any) -> str:
 
 def _init(d: Designator, props: tuple[Pair, ...]) -> None:
     object.__setattr__(d, "_props", props)
+    object.__setattr__(d, "_repr", None)
     object.__setattr__(d, "_stream", None)
     object.__setattr__(d, "_index", 0)
     object.__setattr__(d, "_data", None)

@@ -82,7 +82,12 @@ async def _perform_motion(motion: MotionDesignator) -> Any:
             if first is None:
                 first = _unwrap(failure)
     assert first is not None
-    raise first
+    try:
+        raise first
+    finally:
+        # this frame is in ``first``'s traceback: drop the local, or failure -> traceback
+        # -> frame -> failure is a reference cycle only the cyclic collector frees
+        first = None
 
 
 async def _perform_action(action: ActionDesignator) -> Any:

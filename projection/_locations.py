@@ -550,9 +550,7 @@ class LocationCostmaps:
         horizontal axis it sticks out along (the opening direction); else None."""
         world = self.world
         for link in cm.KITCHEN_LINKS:
-            try:
-                world.joint_position(f"{link}_joint")
-            except LookupError:
+            if not world.has_joint(f"{link}_joint"):
                 continue
             lo, hi = world.link_aabb(link)
             if not (lo[0] < point[0] < hi[0] and lo[1] < point[1] < hi[1]):

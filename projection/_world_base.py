@@ -6,7 +6,6 @@ stability) are mixins on this base, in their own modules."""
 
 from __future__ import annotations
 
-import difflib
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from projection import _urdf
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
+from projection._names import UnknownName
 from projection._objects import object_type
 
 __all__ = ["ASSETS", "DEFAULT_TORSO", "FRAMES", "KITCHEN", "ROBOT", "WorldBase"]
@@ -218,9 +218,8 @@ class WorldBase:
         try:
             return self._links[link]
         except (KeyError, TypeError):
-            close = difflib.get_close_matches(str(link), self._links, n=5, cutoff=0.5)
-            hint = f"; did you mean {', '.join(close)}?" if close else ""
-            raise LookupError(f"unknown link {link!r}{hint}") from None
+            # the "did you mean" hint is built only if the message is read
+            raise UnknownName("link", link, self._links) from None
 
     def _link_tf(self, body: int, index: int) -> _Tf:
         c = self._c
@@ -293,9 +292,16 @@ class WorldBase:
         if joint in self._kitchen_joints:
             return float(pb.getJointState(self._kitchen, self._kitchen_joints[joint],
                                           physicsClientId=self._c)[0])
-        known = [*self._robot_joints, *self._kitchen_joints]
-        close = difflib.get_close_matches(str(joint), known, n=5, cutoff=0.5)
-        raise LookupError(f"unknown joint {joint!r}; close matches: {', '.join(close) or 'none'}")
+        raise UnknownName(
+            "joint", joint, lambda: [*self._robot_joints, *self._kitchen_joints],
+            style="close-matches",
+        )
+
+    def has_joint(self, joint: str) -> bool:
+        """Whether the robot or the kitchen has a movable joint named ``joint`` (ask this
+        instead of catching :meth:`joint_position`'s ``LookupError`` where a miss is
+        expected)."""
+        return joint in self._robot_joints or joint in self._kitchen_joints
 
     def arm_joints(self, arm: str) -> tuple[float, ...]:
         """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
@@ -430,7 +436,7 @@ class WorldBase:
         states = pb.getJointStates(
             self._robot if body is None else body, indices, physicsClientId=self._c
         )
-        return tuple(float(s[0]) for s in states)
+        return tuple([s[0] for s in states])  # PyBullet gives Python floats
 
     def _set_joints(self, indices: Sequence[int], values: Sequence[float],
                     body: int | None = None) -> None:
