@@ -110,9 +110,21 @@ def fetch_location(object_type: str) -> LocationDesignator:
     return a.location(left, front, on=SINK, range=0.5)  # breakfast-cereal, milk
 
 
-def place_location(object_type: str) -> LocationDesignator:
-    """Where CRAM's demo puts the object (reference section 3.4)."""
-    bowl = an.object(type="bowl", name="bowl-1")
+#: Table-setting slots offered to a cup, spoon or milk placed without the bowl (see
+#: :func:`place_location`): more than the bowl's 3, so that objects placed before it leave
+#: free slots for one another, along the whole back half of the island.
+FALLBACK_SLOTS = 5
+
+
+def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDesignator:
+    """Where CRAM's demo puts the object (reference section 3.4).
+
+    The cup, spoon and milk targets are relative to the delivered bowl (``bowl-1``). When
+    the bowl was not delivered before them (``bowl_placed=False``: it is not in the
+    demo's objects, comes later in their order, or its transport failed), they go to a
+    table-setting slot of their own on the island instead (deliberate addition: CRAM's
+    demo always set the bowl first, and its relations had nothing to refer to otherwise,
+    so ``--objects cup`` could never succeed)."""
     if object_type == "bowl":
         return a.location(
             ("side", "back"),
@@ -123,6 +135,15 @@ def place_location(object_type: str) -> LocationDesignator:
             object_count=3,
             range_invert=0.5,
         )
+    if not bowl_placed and object_type in ("cup", "spoon", "milk"):
+        return a.location(
+            ("side", "back"),
+            on=ISLAND,
+            context="table-setting",
+            for_=an.object(type=object_type),
+            object_count=FALLBACK_SLOTS,
+        )
+    bowl = an.object(type="bowl", name="bowl-1")
     # (on the island) added to CRAM's relations (deliberate): the reference bowl is the
     # delivered one; if the bowl is still on the sink counter these designators have no
     # solution (object-undeliverable), rather than a spot beside it on the sink counter
@@ -263,6 +284,13 @@ async def _finalize(names: Sequence[str]) -> None:
     await _initialize_or_finalize("park")
 
 
+def _bowl_placed(outcomes: Mapping[str, ObjectOutcome]) -> bool:
+    """Whether the bowl was delivered earlier in this run (the cup, spoon and milk
+    targets refer to it then)."""
+    bowl = outcomes.get("bowl")
+    return bowl is not None and bowl.success
+
+
 async def table_setting(
     world: Any,
     objects: Sequence[str] = OBJECTS,
@@ -317,7 +345,9 @@ async def table_setting(
                             type="transporting",
                             object=obj,
                             location=fetch_location(object_type),
-                            target=place_location(object_type),
+                            target=place_location(
+                                object_type, bowl_placed=_bowl_placed(outcomes)
+                            ),
                             projection_reasoning=projection_reasoning,
                             projection_runs=projection_runs,
                         )
