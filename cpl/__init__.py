@@ -8,7 +8,7 @@ modules behind it are private.
 """
 
 from ._clock import Clock, ScaledClock, SystemClock, current_clock
-from ._eventlog import EventLog, load_events, tree_from_log
+from ._eventlog import EventLog, load_events, tree_from_log, truncated_tail
 from ._failure_handling import RetryCounter, retry, return_, with_failure_handling, with_retry
 from ._failures import CompositeFailure, Evaporated, PlanFailure, fail
 from ._fluents import (
@@ -87,6 +87,7 @@ __all__ = [
     "task_tree",
     "top_level",
     "tree_from_log",
+    "truncated_tail",
     "try_all",
     "try_in_order",
     "wait_for",

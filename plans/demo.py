@@ -300,6 +300,7 @@ async def table_setting(
     projection_reasoning: bool = True,
     projection_runs: int = 3,
     spawn: bool = True,
+    outcomes: dict[str, ObjectOutcome] | None = None,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -316,11 +317,14 @@ async def table_setting(
     is recorded in its :class:`ObjectOutcome` (an object dropped at the sink is recorded
     as ``ObjectUndeliverable``). Low-level failures that escape the plans
     and evaporation propagate (a drawer opened for the spoon is still closed: see
-    ``transport``). Returns ``{type: outcome}`` in ``objects`` order."""
+    ``transport``). Returns ``{type: outcome}`` in ``objects`` order; ``outcomes``, if
+    given, is filled as the run goes (a caller whose run is evaporated, e.g. by Ctrl-C,
+    still learns what was done)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
-    outcomes: dict[str, ObjectOutcome] = {}
+    if outcomes is None:
+        outcomes = {}
     driven = [0.0]
     last = [env.world.robot_pose()]
 
