@@ -19,7 +19,7 @@ import asyncio
 import re
 import time
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from rich.console import Group, RenderableType
@@ -92,11 +92,14 @@ def fold_failures(tasks: Any) -> list[tuple[str, int, BaseException | None]]:
 class Progress(cpl.Instrument):
     """Follows the real (not imagined) transports: which object, which of how many."""
 
-    def __init__(self, objects: Sequence[str]) -> None:
+    def __init__(
+        self, objects: Sequence[str], *, wall: Callable[[], float] = time.perf_counter
+    ) -> None:
         self.objects = tuple(objects)
         self.index = 0  # 1-based number of the current object; 0 before the first
         self.current: Any = None  # the current transport task
-        self.wall_start = time.perf_counter()
+        self._wall = wall  # the wall clock (a test passes a fake one)
+        self.wall_start = wall()
 
     def task_status_changed(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
         if new is not cpl.Status.RUNNING or old is not cpl.Status.CREATED:
@@ -113,8 +116,9 @@ class Progress(cpl.Instrument):
         n = len(self.objects)
         k = min(self.index, n)
         name = self.objects[k - 1] if k else "getting ready"
-        sim = (sim_now - root.start_time) if sim_now is not None and root.start_time else 0.0
-        wall = time.perf_counter() - self.wall_start
+        started = root.start_time
+        sim = sim_now - started if sim_now is not None and started is not None else 0.0
+        wall = self._wall() - self.wall_start
         text = Text()
         text.append(f"object {k} of {n}: ", style="bold")
         text.append(name, style="bold cyan")

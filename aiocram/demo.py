@@ -62,7 +62,7 @@ class DemoConfig:
     def check(self) -> None:
         """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
         nothing: :func:`run_demo` calls it before it writes a file or builds a world."""
-        from aiocram._outputs import check_out_dir
+        from aiocram._outputs import OutputError, check_out_dir
 
         unknown = [o for o in self.objects if o not in DEFAULT_OBJECTS]
         if unknown:
@@ -89,7 +89,10 @@ class DemoConfig:
         if self.gui and not os.environ.get("DISPLAY"):
             raise DemoConfigError("--gui needs a display (DISPLAY is not set); drop --gui")
         if self.out is not None:
-            check_out_dir(Path(self.out))
+            try:
+                check_out_dir(Path(self.out))
+            except OutputError as exc:
+                raise DemoConfigError(str(exc)) from None
 
 
 @dataclass
@@ -174,6 +177,15 @@ def _faults(config: DemoConfig) -> Any:
     if not isinstance(config.faults, str):
         raise DemoConfigError(
             f"--faults takes a FaultProfile or its text ('0.1', 'ik=0.2'), got {config.faults!r}"
+        )
+    try:
+        bare = float(config.faults)
+    except ValueError:
+        bare = None
+    if bare is not None and not 0.0 <= bare <= 1.0:
+        raise DemoConfigError(
+            f"--faults {config.faults}: a fault rate is a probability from 0 to 1 (e.g. "
+            "--faults 0.1, or per kind: --faults navigation=0.05,ik=0.1)"
         )
     try:
         profile = FaultProfile.parse(config.faults)
@@ -305,7 +317,7 @@ def run_demo(
     from projection import make_world_pair, real_robot_clock, with_real_robot
 
     from ._figures import CameraRecorder, CostmapRecorder
-    from ._outputs import Outputs
+    from ._outputs import OutputError, Outputs
     from ._views import DemoView, Progress
 
     del plans  # imported for its action rules
@@ -315,7 +327,10 @@ def run_demo(
     instruments: list[cpl.Instrument] = [watch, progress]
     outputs: Outputs | None = None
     if config.out is not None:
-        outputs = Outputs(Path(config.out), stale=_STALE)
+        try:  # the first write: a directory that cannot be made is the user's to fix
+            outputs = Outputs(Path(config.out), stale=_STALE)
+        except OutputError as exc:
+            raise DemoConfigError(str(exc)) from None
         if interrupts is not None:
             interrupts.on_abort = lambda: outputs.commit(OUTPUT_FILES)
         instruments.append(cpl.EventLog(outputs.path("log.jsonl")))
@@ -508,7 +523,15 @@ def _print_report(report: DemoReport, console: Any) -> None:
 
     if report.root is not None:
         log = next((str(p) for p in report.files if p.name == "log.jsonl"), None)
-        console.print(final_tree(report.root, log=log))
+        console.print(final_tree(report.root))
+        if log is not None:
+            console.print(
+                f"the whole tree: aiocram show --collapse {log}",
+                soft_wrap=True,
+                markup=False,
+                highlight=False,
+                style="dim",
+            )
     table = Table(
         title=f"table setting, seed {report.config.seed}"
         f" ({'with' if report.config.projection else 'without'} projection reasoning)"
@@ -547,8 +570,8 @@ def _print_report(report: DemoReport, console: Any) -> None:
         console.print(f"[red]invariants violated:[/] {bad}")
     else:
         console.print("invariants hold: " + ", ".join(report.invariants))
-    for path in report.files:
-        console.print(f"wrote {path}")
+    for path in report.files:  # whole, so that it can be copied
+        console.print(f"wrote {path}", soft_wrap=True, markup=False, highlight=False)
 
 
 # ----------------------------------------------------------------------- command line
