@@ -113,6 +113,8 @@ class DemoReport:
     interrupted: bool = False
     #: The run's root task (dead), for the final tree.
     root: Any = None
+    #: Evaporated tasks whose cleanup raised (``cpl.cleanup_failures``; each is logged).
+    cleanup_failures: int = 0
 
     @property
     def delivered(self) -> int:
@@ -405,6 +407,7 @@ def run_demo(
             [],
             interrupted=interrupted,
             root=root,
+            cleanup_failures=len(cpl.cleanup_failures(root)),
         )
     finally:
         restore_logging()
@@ -446,7 +449,7 @@ def _route_plan_logs(path: Path | None) -> Callable[[], None]:
         handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     else:
         handler = logging.NullHandler()
-    loggers = [logging.getLogger(name) for name in ("plans", "executive", "projection")]
+    loggers = [logging.getLogger(name) for name in ("plans", "executive", "projection", "cpl")]
     saved = [(lg, lg.propagate, lg.level) for lg in loggers]
     for lg in loggers:
         lg.propagate = False
@@ -565,6 +568,12 @@ def _print_report(report: DemoReport, console: Any) -> None:
     console.print(
         f"{done}; simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time"
     )
+    if report.cleanup_failures:
+        where = " (each in plans.log)" if report.files else ""
+        console.print(
+            f"[red]{report.cleanup_failures} cleanup failure(s)[/]: the cleanup of an "
+            f"evaporated task raised{where}"
+        )
     bad = {k: report.violations.get(k, "") for k, v in report.invariants.items() if not v}
     if bad:
         console.print(f"[red]invariants violated:[/] {bad}")

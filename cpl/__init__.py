@@ -7,6 +7,7 @@ evaporation (cancellation) always lets cleanup run. Everything public is here; t
 modules behind it are private.
 """
 
+from ._cleanup import cleanup_failures
 from ._clock import Clock, ScaledClock, SystemClock, current_clock
 from ._eventlog import EventLog, load_events, tree_from_log, truncated_tail
 from ._failure_handling import RetryCounter, retry, return_, with_failure_handling, with_retry
@@ -56,6 +57,7 @@ __all__ = [
     "Task",
     "TaskNode",
     "ancestors",
+    "cleanup_failures",
     "current_clock",
     "current_task",
     "fail",

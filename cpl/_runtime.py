@@ -14,6 +14,7 @@ from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
+from ._cleanup import log_cleanup_failures
 from ._failure_handling import _Retry, _Return
 from ._instruments import Instrument, InstrumentSet
 from ._scheduling import CURRENT_TASK
@@ -135,6 +136,7 @@ async def top_level(
             raise
     finally:
         _ACTIVE.discard(root)
+        log_cleanup_failures(root)  # otherwise seen only in the recorded tree
         if name is not None:
             (history or DEFAULT_HISTORY).record(name, root)
         for hook in run_.instruments.run_finished:

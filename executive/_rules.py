@@ -28,7 +28,7 @@ hot path is one dict lookup and one tuple comparison.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, Final, TypeVar
 
@@ -88,6 +88,9 @@ class Rule:
     seq: int
     fn: Callable[..., Any]
     call: Callable[..., Any]
+    #: The property keys the rule understands (``type`` is always known), or ``None``: not
+    #: declared, any key accepted. See :meth:`RuleSet.register`.
+    keys: frozenset[str] | None = None
 
     @property
     def name(self) -> str:
@@ -140,11 +143,19 @@ class RuleSet:
         *,
         priority: float = 0,
         replace: bool = False,
+        keys: Iterable[str] | None = None,
     ) -> F:
         """Register ``fn(designator[, environment])``, a generator of solutions, for
         designators of ``kind`` (``"action"``, ``"motion"``, ``"object"``) whose ``type``
         property is ``type`` (``"*"``: any type). ``replace=True`` hides the parent chain's
         rules for this pattern. Returns ``fn`` (so it works as a decorator body).
+
+        ``keys``: the property keys the rule reads (``type`` is implied). When every rule
+        for a designator's kind and type declares its keys, a designator with another key
+        (a typo such as ``objekt``) fails to resolve with a ``DesignatorError`` that lists
+        the known keys, before anything is performed (CRAM ignored unknown keys silently;
+        we differ on purpose). A rule registered without ``keys`` accepts any key: that is
+        how a rule explicitly allows keys it does not list.
 
         Solutions: actions yield ``(plan_function, arguments)``, motions
         ``(command, arguments)``, objects :class:`executive.ObjectData` (or anything with a
@@ -165,16 +176,29 @@ class RuleSet:
         key = (kind, type)
         if replace:
             self._replaced.add(key)
-        self._rules.setdefault(key, []).append(Rule(kind, type, priority, seq, fn, call))
+        declared = None
+        if keys is not None:
+            if isinstance(keys, str):
+                raise TypeError(f"keys must be a collection of key names, got the string {keys!r}")
+            declared = frozenset(str(k).replace("_", "-") for k in keys)
+        self._rules.setdefault(key, []).append(
+            Rule(kind, type, priority, seq, fn, call, declared)
+        )
         return fn
 
     def rule(
-        self, kind: str, type: str, *, priority: float = 0, replace: bool = False
+        self,
+        kind: str,
+        type: str,
+        *,
+        priority: float = 0,
+        replace: bool = False,
+        keys: Iterable[str] | None = None,
     ) -> Callable[[F], F]:
         """Decorator form of :meth:`register`."""
 
         def deco(fn: F) -> F:
-            return self.register(kind, type, fn, priority=priority, replace=replace)
+            return self.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
 
         return deco
 
@@ -287,14 +311,30 @@ builtin_rules: Final = RuleSet(parent=None, name="builtin")
 static_rules: Final = RuleSet(parent=builtin_rules, name="static")
 
 
-def register_rule(kind: str, type: str, fn: F, *, priority: float = 0, replace: bool = False) -> F:
+def register_rule(
+    kind: str,
+    type: str,
+    fn: F,
+    *,
+    priority: float = 0,
+    replace: bool = False,
+    keys: Iterable[str] | None = None,
+) -> F:
     """Register a rule in the static rule set (see :meth:`RuleSet.register`)."""
-    return static_rules.register(kind, type, fn, priority=priority, replace=replace)
+    return static_rules.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
 
 
-def rule(kind: str, type: str, *, priority: float = 0, replace: bool = False) -> Callable[[F], F]:
-    """Decorator: ``@executive.rule("action", "picking-up")`` registers statically."""
-    return static_rules.rule(kind, type, priority=priority, replace=replace)
+def rule(
+    kind: str,
+    type: str,
+    *,
+    priority: float = 0,
+    replace: bool = False,
+    keys: Iterable[str] | None = None,
+) -> Callable[[F], F]:
+    """Decorator: ``@executive.rule("action", "picking-up", keys=(...))`` registers
+    statically."""
+    return static_rules.rule(kind, type, priority=priority, replace=replace, keys=keys)
 
 
 def register_location_generator(fn: F, priority: float = 0) -> F:

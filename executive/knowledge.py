@@ -28,6 +28,7 @@ __all__ = [
     "ARMS",
     "ARM_CONFIGURATIONS",
     "ARM_JOINTS",
+    "GRIPPER_MAX_OPENING",
     "LIFT_OFFSET",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
@@ -49,6 +50,10 @@ Mat3 = tuple[Vec3, Vec3, Vec3]
 
 #: Arms in CRAM's enumeration order (pick-up tries the right arm first).
 ARMS: tuple[str, ...] = ("right", "left")
+#: The widest opening (m) of the PR2-like robot's gripper: the distance between the finger
+#: pads, each finger opening up to 0.05 m (``setting-gripper`` positions are checked
+#: against it before the gripper moves).
+GRIPPER_MAX_OPENING: float = 0.10
 
 #: The 7 arm joints of one side, without the ``l_``/``r_`` prefix, root to tip.
 ARM_JOINTS: tuple[str, ...] = (

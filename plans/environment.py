@@ -145,4 +145,4 @@ def _container_rule(action_type: str) -> Any:
 
 
 for _verb in ("opening", "closing"):
-    rule("action", _verb)(_container_rule(_verb))
+    rule("action", _verb, keys=("object", "arm", "distance"))(_container_rule(_verb))

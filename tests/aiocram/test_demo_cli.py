@@ -293,3 +293,40 @@ def test_plans_log_has_every_retry_the_summary_counts(tmp_path):
     assert sum(totals.values()) > 0  # seed 1 retries (else this test proves nothing)
     for kind, n in totals.items():
         assert granted.get(kind, 0) >= n, (kind, n, granted)
+
+
+def test_cleanup_failures_are_in_the_summary_and_plans_log(tmp_path, monkeypatch, capsys):
+    """A cleanup that raised in an evaporated branch is counted in the summary and logged
+    (with its traceback) in plans.log."""
+    import cpl
+    import plans.demo
+    from aiocram.cli import main
+
+    class Boom(cpl.PlanFailure):
+        pass
+
+    async def slow() -> None:
+        try:
+            await cpl.sleep(10)
+        finally:
+            raise RuntimeError("cleanup broke")
+
+    async def fail() -> None:
+        await cpl.sleep(1)
+        raise Boom("a branch failed")
+
+    async def plan_with_broken_cleanup(*args, **kwargs):
+        try:
+            await cpl.par(cpl.tag("slow", slow), cpl.tag("fail", fail))
+        except Boom:
+            pass
+        return {}
+
+    monkeypatch.setattr(plans.demo, "table_setting", plan_with_broken_cleanup)
+    code = main(["demo", "--objects", "cup", "--no-live", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "1 cleanup failure(s)" in out
+    log = (tmp_path / "plans.log").read_text()
+    assert "the cleanup of evaporated task demo/par/slow raised RuntimeError" in log
+    assert "Traceback" in log
