@@ -104,9 +104,8 @@ def _location(d: Designator, key: str) -> LocationDesignator:
 
 def _check_places(d: Designator, *keys: str) -> None:
     """DesignatorError, raised by the action's rule (so before anything moves), when a
-    location under ``keys`` names a surface or container (``(on ...)``/``(in ...)`` with a
-    ``urdf-name``, also inside nested locations) that the environment's world does not
-    have. Without this, an unknown surface failed only when the plan reached it, after the
+    location under ``keys`` names a surface (``(on ...)`` with a ``urdf-name``, also inside
+    nested locations) that the environment's world does not have. Without this, an unknown surface failed only when the plan reached it, after the
     base and arms had moved (deliberate addition: CRAM checked nothing up front)."""
     world = getattr(current_environment(), "world", None)
     if world is None or not hasattr(world, "link_pose"):
@@ -118,7 +117,9 @@ def _check_places(d: Designator, *keys: str) -> None:
         seen += 1
         if not isinstance(value, LocationDesignator):
             continue
-        for relation in ("on", "in"):
+        # (in <container>) is left to the container's own rules: they reach it through its
+        # handle link, which a world may know without knowing the container's body link
+        for relation in ("on",):
             place = value.get(relation)
             if not isinstance(place, ObjectDesignator):
                 continue
