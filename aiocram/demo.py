@@ -537,14 +537,16 @@ def _print_report(report: DemoReport, console: Any) -> None:
             )
     table = Table(
         title=f"table setting, seed {report.config.seed}"
-        f" ({'with' if report.config.projection else 'without'} projection reasoning)"
+        f" ({'with' if report.config.projection else 'without'} projection reasoning)",
+        caption="dist = metres driven, sim = simulated seconds, imag = wall s imagining",
     )
+    # fits 80 columns: long cells are cut with an ellipsis, never wrapped into towers
     table.add_column("object", no_wrap=True)
-    table.add_column("outcome", no_wrap=True, overflow="ellipsis", max_width=22)
-    table.add_column("retries", no_wrap=True, overflow="ellipsis", max_width=18)
-    table.add_column("distance (m)", justify="right")
-    table.add_column("real time (s)", justify="right")
-    table.add_column("imagined (wall s)", justify="right")
+    table.add_column("outcome", no_wrap=True, overflow="ellipsis", max_width=20)
+    table.add_column("retries", no_wrap=True, overflow="ellipsis", max_width=14)
+    table.add_column("dist (m)", justify="right", no_wrap=True)
+    table.add_column("sim (s)", justify="right", no_wrap=True)
+    table.add_column("imag (s)", justify="right", no_wrap=True)
     for name, o in report.outcomes.items():
         if o.success:
             outcome = "[green]placed[/]"
