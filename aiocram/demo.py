@@ -538,7 +538,7 @@ def _print_report(report: DemoReport, console: Any) -> None:
     table = Table(
         title=f"table setting, seed {report.config.seed}"
         f" ({'with' if report.config.projection else 'without'} projection reasoning)",
-        caption="dist = metres driven, sim = simulated seconds, imag = wall s imagining",
+        caption="dist: m driven · sim: simulated s · imag: wall s imagining",
     )
     # fits 80 columns: long cells are cut with an ellipsis, never wrapped into towers
     table.add_column("object", no_wrap=True)
@@ -564,11 +564,14 @@ def _print_report(report: DemoReport, console: Any) -> None:
         )
     console.print(table)
     n = len(report.config.objects)
-    done = f"{report.delivered}/{n} objects placed"
     if report.interrupted:
-        done += f" (interrupted by Ctrl-C after {len(report.outcomes)} of {n} objects)"
+        console.print(
+            f"interrupted by Ctrl-C during object {len(report.outcomes)} of {n}: the plan was "
+            "evaporated and its cleanup ran"
+        )
     console.print(
-        f"{done}; simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time"
+        f"{report.delivered}/{n} objects placed; simulated {report.sim_time_s:.1f} s in "
+        f"{report.wall_time_s:.1f} s wall time"
     )
     if report.cleanup_failures:
         where = " (each in plans.log)" if report.files else ""

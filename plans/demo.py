@@ -363,8 +363,9 @@ async def table_setting(
                         outcome.failure = ObjectUndeliverable(object=obj.current())
                 except HighLevelFailure as failure:
                     outcome.failure = failure
-            outcome.retries = dict(ledger)
-            outcome.distance = driven[0] - start
+                finally:  # also when evaporated (Ctrl-C): what was done so far
+                    outcome.retries = dict(ledger)
+                    outcome.distance = driven[0] - start
     finally:
         try:
             await cpl.shielded(_finalize([f"{t}-1" for t in objects]))
