@@ -13,7 +13,6 @@ the parsed namespace and returning the exit code), and list it in :data:`_SUBCOM
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Callable, Sequence
 from importlib import metadata
@@ -155,29 +154,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _import_pybullet_quietly() -> None:
-    """Import pybullet with file descriptor 2 pointed at /dev/null: its C module prints
-    ``pybullet build time: ...`` to stderr when first imported, which is noise on every
-    command. Errors of the import itself still surface (as the exception)."""
-    if "pybullet" in sys.modules:
-        return
+    """Import pybullet without its ``pybullet build time`` banner on stderr (see
+    :mod:`projection._quiet`); a missing pybullet is left for the command to report."""
     try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):  # no real stderr (e.g. embedded): nothing to hide
-        return
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(devnull, 2)
-            try:
-                import pybullet  # noqa: F401
-            except ImportError:
-                pass  # the command that needs it reports it
-        finally:
-            os.dup2(saved, 2)
-            os.close(devnull)
-    finally:
-        os.close(saved)
+        from projection._quiet import import_pybullet_quietly
+
+        import_pybullet_quietly()
+    except ImportError:
+        pass
 
 
 def main(argv: Sequence[str] | None = None) -> int:

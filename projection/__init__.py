@@ -76,6 +76,9 @@ def __getattr__(name: str) -> Any:
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'projection' has no attribute {name!r}")
+    from projection._quiet import import_pybullet_quietly
+
+    import_pybullet_quietly()  # before any module here imports it: no banner on stderr
     if name == "render":
         return importlib.import_module(module)
     return getattr(importlib.import_module(module), name)
