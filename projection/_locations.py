@@ -269,7 +269,7 @@ class LocationCostmaps:
                 name = "__costmap_probe__"
                 while name in world.objects:
                     name += "_"
-                world.spawn_object(name, plan.for_type, p)
+                world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
                 world.set_object_pose(name, p)
             hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]

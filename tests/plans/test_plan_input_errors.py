@@ -89,3 +89,15 @@ def test_placing_targets_need_the_bowl_only_once_it_is_placed(object_type):
     assert not mentions_bowl(alone)
     assert alone.get("context") == "table-setting"
     assert mentions_bowl(beside)
+
+
+def test_opening_a_drawer_too_far_fails_before_the_arm_moves(mrun, world):
+    from plans.demo import DRAWER
+
+    before = _state(world)
+    with pytest.raises(DesignatorError, match=r"opened by at most 0\.480 m"):
+        _run(mrun, world, an.action(type="opening", object=DRAWER, arm="left", distance=5))
+    assert _state(world) == before
+    with pytest.raises(DesignatorError, match="distance must be a number of metres > 0"):
+        _run(mrun, world, an.action(type="opening", object=DRAWER, arm="left", distance=-1))
+    assert _state(world) == before
