@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import sys
 from types import ModuleType
+from typing import cast
 
 __all__ = ["import_pybullet_quietly"]
 
@@ -26,7 +27,7 @@ def import_pybullet_quietly() -> ModuleType:
     except (OSError, ValueError):  # no real descriptor 2 (embedded): nothing to hide
         import pybullet
 
-        return pybullet
+        return cast(ModuleType, pybullet)
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 2)
@@ -35,4 +36,4 @@ def import_pybullet_quietly() -> ModuleType:
         os.dup2(saved, 2)
         os.close(saved)
         os.close(devnull)
-    return pybullet
+    return cast(ModuleType, pybullet)
