@@ -541,12 +541,11 @@ def _print_report(report: DemoReport, console: Any) -> None:
         caption="dist: m driven · sim: simulated s · imag: wall s imagining",
     )
     # fits 80 columns: long cells are cut with an ellipsis, never wrapped into towers
-    table.add_column("object", no_wrap=True)
-    table.add_column("outcome", no_wrap=True, overflow="ellipsis", max_width=20)
-    table.add_column("retries", no_wrap=True, overflow="ellipsis", max_width=14)
-    table.add_column("dist (m)", justify="right", no_wrap=True)
-    table.add_column("sim (s)", justify="right", no_wrap=True)
-    table.add_column("imag (s)", justify="right", no_wrap=True)
+    # fixed widths: 80 columns in all (the JSON and plans.log have the whole text)
+    for header, width in (("object", 16), ("outcome", 12), ("retries", 10)):
+        table.add_column(header, no_wrap=True, overflow="ellipsis", width=width)
+    for header in ("dist (m)", "sim (s)", "imag (s)"):
+        table.add_column(header, justify="right", no_wrap=True, width=len(header))
     for name, o in report.outcomes.items():
         if o.success:
             outcome = "[green]placed[/]"
@@ -563,6 +562,12 @@ def _print_report(report: DemoReport, console: Any) -> None:
             f"{report.imagined_wall_s.get(name, 0.0):.2f}",
         )
     console.print(table)
+    kinds = [(name, _retries_text(o.retries)) for name, o in report.outcomes.items()]
+    kinds = [(name, text.split(": ", 1)[1]) for name, text in kinds if text != "-"]
+    if kinds:
+        console.print("retries by kind (each one is in plans.log):")
+        for name, text in kinds:
+            console.print(f"  {name}: {text}", highlight=False)
     n = len(report.config.objects)
     if report.interrupted:
         console.print(

@@ -98,6 +98,16 @@ class Rule:
         return str(getattr(self.fn, "__qualname__", repr(self.fn)))
 
 
+def _declared(keys: Iterable[str] | None) -> frozenset[str] | None:
+    """The ``keys=`` of a registration, in designator spelling (``joint_angle`` ->
+    ``joint-angle``)."""
+    if keys is None:
+        return None
+    if isinstance(keys, str):
+        raise TypeError(f"keys must be a collection of key names, got the string {keys!r}")
+    return frozenset(str(k).replace("_", "-") for k in keys)
+
+
 class RuleSet:
     """A set of resolution rules, location generators and location validators.
 
@@ -177,13 +187,8 @@ class RuleSet:
         key = (kind, type)
         if replace:
             self._replaced.add(key)
-        declared = None
-        if keys is not None:
-            if isinstance(keys, str):
-                raise TypeError(f"keys must be a collection of key names, got the string {keys!r}")
-            declared = frozenset(str(k).replace("_", "-") for k in keys)
         self._rules.setdefault(key, []).append(
-            Rule(kind, type, priority, seq, fn, call, declared)
+            Rule(kind, type, priority, seq, fn, call, _declared(keys))
         )
         return fn
 
@@ -203,13 +208,19 @@ class RuleSet:
 
         return deco
 
-    def register_location_generator(self, fn: F, priority: float = 0) -> F:
+    def register_location_generator(
+        self, fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+    ) -> F:
         """Register ``fn(designator[, environment])`` yielding candidate poses (possibly
         infinitely many). Generators run in ascending priority (CRAM: Prolog groundings at
-        10, costmaps at 20); their outputs are concatenated lazily."""
+        10, costmaps at 20); their outputs are concatenated lazily. ``keys``: the location
+        keys it understands; when every generator declares them, a location designator with
+        another key fails to resolve, listing the known ones (as :meth:`register`)."""
         call = _arity_adapter(fn, 1, "location generator")
         seq = self._bump()
-        self._generators.append(Rule("location", WILDCARD, priority, seq, fn, call))
+        self._generators.append(
+            Rule("location", WILDCARD, priority, seq, fn, call, _declared(keys))
+        )
         return fn
 
     def register_location_validator(self, fn: F, priority: float = 0) -> F:
@@ -355,9 +366,11 @@ def rule(
     return static_rules.rule(kind, type, priority=priority, replace=replace, keys=keys)
 
 
-def register_location_generator(fn: F, priority: float = 0) -> F:
+def register_location_generator(
+    fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+) -> F:
     """Register a location generator in the static rule set."""
-    return static_rules.register_location_generator(fn, priority)
+    return static_rules.register_location_generator(fn, priority, keys=keys)
 
 
 def register_location_validator(fn: F, priority: float = 0) -> F:

@@ -154,7 +154,9 @@ class LocationCostmaps:
         self.builds = 0
         self._plans: weakref.WeakKeyDictionary[Designator, _Plan] = weakref.WeakKeyDictionary()
         rules = (parent if parent is not None else static_rules).child("projection-locations")
-        rules.register_location_generator(self.generate, 20)
+        rules.register_location_generator(
+            self.generate, 20, keys=(*COSTMAP_KEYS, *_MODIFIERS, "location", "object", "pose")
+        )
         rules.register_location_validator(self.validate_on_floor, 1)
         rules.register_location_validator(self.validate_reachable, 5)
         rules.register_location_validator(self.validate_visible, 5)
