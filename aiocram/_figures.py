@@ -188,6 +188,28 @@ class CostmapRecorder(cpl.Instrument):
         self.uses: list[_Use] = []
         self._by_chain: dict[int, _Use] = {}
         self._pending: dict[int, tuple[_Use, Any]] = {}
+        #: every candidate pose the location pipeline generated, by chain (see
+        #: :meth:`recording`); those that did not become solutions were rejected
+        self.candidates: dict[int, list[tuple[float, float, float]]] = {}
+        self.by_text: dict[str, list[tuple[float, float, float]]] = {}
+
+    def recording(self, rules: Any) -> Any:
+        """A child of ``rules`` whose first location validator notes every candidate pose
+        (and decides nothing): pass it as the run's rules to draw rejected samples."""
+        child = rules.child("demo-costmap-recording")
+
+        def note(d: Any, pose: Any) -> str:
+            # by chain, and by the chain's text: plans resolve copies of the designator
+            # they navigate by (e.g. a collision-checked one), whose chain is another
+            first = d.first() if hasattr(d, "first") else d
+            if getattr(pose, "frame", "map") == "map":
+                xyyaw = _xyyaw(pose)
+                self.candidates.setdefault(id(first), []).append(xyyaw)
+                self.by_text.setdefault(repr(first), []).append(xyyaw)
+            return "unknown"
+
+        child.register_location_validator(note, -1000)
+        return child
 
     @staticmethod
     def _location(task: cpl.Task) -> Any:
@@ -268,7 +290,12 @@ class CostmapRecorder(cpl.Instrument):
         for k, use in enumerate(chosen, start=1):
             name = f"costmap-{k}-{_STEPS.get(use.step, use.step)}-{_slug(use.object)}.png"
             try:
-                paths.append(costmap_figure(engine, use, out_dir / name, number=k))
+                tried = self.candidates.get(id(use.location)) or self.by_text.get(
+                    repr(use.location), []
+                )
+                paths.append(
+                    costmap_figure(engine, use, out_dir / name, number=k, candidates=tried)
+                )
             except Exception as exc:  # reported, and the demo goes on
                 print(f"(costmap {name} not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
         return paths
@@ -300,8 +327,17 @@ _PURPOSE = {
 }
 
 
-def costmap_figure(engine: Any, use: _Use, path: Path, *, number: int = 1) -> Path:
-    """One costmap figure (see the module docstring) written to ``path``."""
+def costmap_figure(
+    engine: Any,
+    use: _Use,
+    path: Path,
+    *,
+    number: int = 1,
+    candidates: list[tuple[float, float, float]] = (),  # type: ignore[assignment]
+) -> Path:
+    """One costmap figure (see the module docstring) written to ``path``; ``candidates``:
+    every pose the location pipeline generated for the chain (those that are not among
+    its solutions were rejected by a validator)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -414,12 +450,20 @@ def costmap_figure(engine: Any, use: _Use, path: Path, *, number: int = 1) -> Pa
     failed = [p for p, ok in use.tries if not ok]
     good = [p for p, ok in use.tries if ok]
     tried = {(round(p[0], 3), round(p[1], 3)) for p, _ in use.tries}
-    sampled = [
-        _xyyaw(m.reference())
-        for m in use.location.chain()
-        if m.effective
-        and (round(m.reference().position[0], 3), round(m.reference().position[1], 3)) not in tried
-    ]
+    accepted = [_xyyaw(m.reference()) for m in use.location.chain() if m.effective]
+    sampled = [p for p in accepted if (round(p[0], 3), round(p[1], 3)) not in tried]
+    solutions = {(round(p[0], 4), round(p[1], 4)) for p in accepted}
+    rejected = [p for p in candidates if (round(p[0], 4), round(p[1], 4)) not in solutions]
+    if rejected:
+        ax.scatter(
+            [p[0] for p in rejected],
+            [p[1] for p in rejected],
+            marker="x",
+            s=14,
+            color="0.45",
+            lw=0.8,
+            zorder=4,
+        )
     if sampled:
         ax.scatter(
             [p[0] for p in sampled],
@@ -492,7 +536,16 @@ def costmap_figure(engine: Any, use: _Use, path: Path, *, number: int = 1) -> Pa
             ls="",
             markerfacecolor="white",
             markeredgecolor="0.2",
-            label="pose sampled, not driven to",
+            label="pose accepted, not driven to",
+        ),
+        Line2D(
+            [],
+            [],
+            marker="x",
+            ls="",
+            color="0.45",
+            mew=0.8,
+            label="sample rejected (collision, reach, view...)",
         ),
     ]
     ax.legend(handles=legend, loc="upper left", fontsize=7.5, framealpha=0.9)

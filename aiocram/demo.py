@@ -349,7 +349,14 @@ def run_demo(
         assert root is not None
         if interrupts is not None:
             interrupts.attach(root)
-        async with with_real_robot(true_world, belief_world, faults=faults, speed=config.speed):
+        from projection._locations import location_rules
+
+        rules = location_rules(belief_world)
+        if outputs is not None:  # note every candidate pose, for the costmap pictures
+            rules = costmaps.recording(rules)
+        async with with_real_robot(
+            true_world, belief_world, faults=faults, speed=config.speed, rules=rules
+        ):
             engine_box.append(costmaps_of(current_environment().rules))
             plan = table_setting(
                 true_world,
