@@ -667,7 +667,26 @@ def _rule_solutions(d: Designator, env: Environment) -> Iterator[Any]:
             f"{kind!r}, {type_!r}, fn)",
             d,
         )
+    _check_keys(d, kind, type_, rules)
     return _chain_rules(d, env, rules, _NORMALISE[kind])
+
+
+def _check_keys(d: Designator, kind: str, type_: str, rules: tuple[Rule, ...]) -> None:
+    """DesignatorError for a key no rule of ``d``'s kind and type reads, when they all
+    declare their keys (see :meth:`executive.RuleSet.register`)."""
+    declared = [r.keys for r in rules]
+    if not declared or any(k is None for k in declared):
+        return
+    known = {"type"}.union(*(k for k in declared if k is not None))
+    unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
+    if unknown:
+        article = "an" if kind in ("action", "object") else "a"
+        raise DesignatorError(
+            f"{d.short()}: unknown key{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(repr(k) for k in unknown)} for {article} {kind} of type {type_!r}; "
+            f"known keys: {', '.join(sorted(known))}",
+            d,
+        )
 
 
 def _chain_rules(

@@ -154,7 +154,9 @@ class LocationCostmaps:
         self.builds = 0
         self._plans: weakref.WeakKeyDictionary[Designator, _Plan] = weakref.WeakKeyDictionary()
         rules = (parent if parent is not None else static_rules).child("projection-locations")
-        rules.register_location_generator(self.generate, 20)
+        rules.register_location_generator(
+            self.generate, 20, keys=(*COSTMAP_KEYS, *_MODIFIERS, "location", "object", "pose")
+        )
         rules.register_location_validator(self.validate_on_floor, 1)
         rules.register_location_validator(self.validate_reachable, 5)
         rules.register_location_validator(self.validate_visible, 5)
@@ -269,7 +271,7 @@ class LocationCostmaps:
                 name = "__costmap_probe__"
                 while name in world.objects:
                     name += "_"
-                world.spawn_object(name, plan.for_type, p)
+                world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
                 world.set_object_pose(name, p)
             hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]

@@ -26,13 +26,35 @@ from projection._geometry import yaw_quat as _yaw_quat
 from projection._names import UnknownName
 from projection._objects import object_type
 
-__all__ = ["ASSETS", "DEFAULT_TORSO", "FRAMES", "KITCHEN", "ROBOT", "WorldBase"]
+__all__ = [
+    "ASSETS",
+    "DEFAULT_TORSO",
+    "FRAMES",
+    "KITCHEN",
+    "ROBOT",
+    "SPAWN_OVERLAP",
+    "SpawnOverlap",
+    "WorldBase",
+]
 
 ASSETS = Path(__file__).resolve().parent / "assets"
 DEFAULT_TORSO = 0.15  #: torso height of a new world (m): camera at 1.42 m
 FRAMES = ("map", "base_footprint")
 ROBOT = "pr2"
 KITCHEN = "kitchen"
+#: How deep (m) a new object may reach into another object or the robot when spawned: more
+#: is an overlap (:class:`SpawnOverlap`), which physics would resolve by throwing objects.
+SPAWN_OVERLAP = 0.005
+
+
+class SpawnOverlap(ValueError):
+    """``spawn_object`` would put the object into another object or the robot. Fields:
+    ``name`` (the object not spawned), ``overlaps`` (what it would overlap)."""
+
+    def __init__(self, message: str, name: str, overlaps: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.name = name
+        self.overlaps = overlaps
 
 
 
@@ -96,6 +118,12 @@ class WorldBase:
             for n, i in self._kitchen_joints.items()
         }
         self._link_names = {v: k for k, v in self._links.items()}
+        # invariant: the room, the xy hull of the kitchen's links (walls included); the
+        # robot's base never leaves it (``drive`` refuses goals outside)
+        boxes = [pb.getAABB(self._kitchen, i, physicsClientId=c)
+                 for i in range(-1, pb.getNumJoints(self._kitchen, physicsClientId=c))]
+        self._room = (min(lo[0] for lo, _ in boxes), min(lo[1] for lo, _ in boxes),
+                      max(hi[0] for _, hi in boxes), max(hi[1] for _, hi in boxes))
         self._dofs = sorted(self._limits)  # movable robot joints, IK order
         self._arm_joints = {
             arm: [self._robot_joints[f"{p}_{j}"] for j in knowledge.ARM_JOINTS]
@@ -196,6 +224,12 @@ class WorldBase:
         """Object name -> type (a read-only copy)."""
         self._check()
         return MappingProxyType({n: o.type for n, o in self._objects.items()})
+
+    @property
+    def room(self) -> tuple[float, float, float, float]:
+        """The room's floor in map xy, ``(x_min, y_min, x_max, y_max)``: the hull of the
+        kitchen's links, walls included. The base does not drive outside it."""
+        return self._room
 
     @property
     def link_names(self) -> tuple[str, ...]:
@@ -319,10 +353,15 @@ class WorldBase:
         return float(sum(self._get_joints(self._fingers[self._arm(arm)])))
 
     # ------------------------------------------------------------------ registry
-    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+    def spawn_object(
+        self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False
+    ) -> str:
         """Add an object of a known type at ``pose`` (map or base_footprint), at rest.
         Duplicate name -> ValueError; unknown type -> LookupError naming the known ones;
-        NaN pose -> ValueError. The world is unchanged on error."""
+        NaN pose -> ValueError; reaching more than :data:`SPAWN_OVERLAP` into another
+        object or the robot -> :class:`SpawnOverlap` (``allow_overlap=True`` skips that
+        check, for probes and restores that check contacts themselves). The world is
+        unchanged on error."""
         c = self._check()
         if not isinstance(name, str) or not name or name in (ROBOT, KITCHEN):
             raise ValueError(f"object name must be a non-empty string other than pr2/kitchen, "
@@ -332,9 +371,32 @@ class WorldBase:
         otype = object_type(type)
         pos, orn = self._to_map(pose)
         body = pb.loadURDF(str(ASSETS / "objects" / otype.urdf_name), pos, orn, physicsClientId=c)
+        if not allow_overlap:
+            overlaps = self._overlaps(body)
+            if overlaps:
+                pb.removeBody(body, physicsClientId=c)
+                raise SpawnOverlap(
+                    f"cannot spawn {name!r} at {tuple(round(v, 3) for v in pos)}: it would "
+                    f"overlap {', '.join(overlaps)} (deeper than {SPAWN_OVERLAP} m); choose a "
+                    "free pose (e.g. sample one with a location designator (for ...))",
+                    name,
+                    overlaps,
+                )
         self._objects[name] = _Obj(otype.name, body)
         self._bodies[body] = name
         return name
+
+    def _overlaps(self, body: int) -> tuple[str, ...]:
+        """Names of the objects and the robot that ``body`` reaches into by more than
+        :data:`SPAWN_OVERLAP` (the kitchen is not checked: objects stand on it)."""
+        c = self._c
+        found = []
+        others = [(ROBOT, self._robot)] + [(n, o.body) for n, o in self._objects.items()]
+        for other_name, other in others:
+            points = pb.getClosestPoints(body, other, 0.0, physicsClientId=c)
+            if any(q[8] < -SPAWN_OVERLAP for q in points):
+                found.append(other_name)
+        return tuple(found)
 
     def remove_object(self, name: str) -> None:
         """Remove an object (and its attachment); unknown -> LookupError."""
