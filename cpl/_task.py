@@ -483,6 +483,12 @@ class Task:
             self._close_aw()
         if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
             host.uncancel()  # the body swallowed its evaporation: take back our request
+        elif outcome is _FAILED and self.evaporation is None and host.cancelling():
+            # An ancestor's evaporation unwound this task and its cleanup raised: the task
+            # failed in its cleanup (recorded, and logged at the run's end, as for a task of
+            # its own), and the ancestor's evaporation goes on instead of that failure.
+            self.evaporation = Evaporated("its parent was evaporated", parent.path)
+            reraise = asyncio.CancelledError()
         if outcome is not _SUCCEEDED:
             self.result = None
         self._body_done = True
