@@ -87,7 +87,7 @@ class Evaporated(asyncio.CancelledError):
 
 
 def fail(
-    failure: BaseException | type[PlanFailure] | str | None = None, **details: Any
+    failure: PlanFailure | type[PlanFailure] | str | None = None, **details: Any
 ) -> NoReturn:
     """Raise a plan failure (CRAM's ``fail``).
 
