@@ -528,7 +528,7 @@ def test_anyio_event_sets_a_fluent(cpl_run: Any) -> None:
 def test_memory_object_stream_feeds_a_fluent_and_evaporation_stops_the_pump(
     cpl_run: Any,
 ) -> None:
-    seen: list[int] = []
+    seen: list[float] = []
     closed: list[str] = []
 
     async def main() -> Any:
