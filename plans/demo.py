@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -272,6 +272,7 @@ async def table_setting(
     projection_reasoning: bool = True,
     projection_runs: int = 3,
     spawn: bool = True,
+    before_cleanup: Callable[[], None] | None = None,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -288,7 +289,9 @@ async def table_setting(
     is recorded in its :class:`ObjectOutcome` (an object dropped at the sink is recorded
     as ``ObjectUndeliverable``). Low-level failures that escape the plans
     and evaporation propagate (a drawer opened for the spoon is still closed: see
-    ``transport``). Returns ``{type: outcome}`` in ``objects`` order."""
+    ``transport``). ``before_cleanup``, if given, is called once the transports are over
+    and before the final cleanup (an observer's hook: it sees what the plan left behind).
+    Returns ``{type: outcome}`` in ``objects`` order."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
@@ -329,8 +332,15 @@ async def table_setting(
                     outcome.failure = failure
             outcome.retries = dict(ledger)
             outcome.distance = driven[0] - start
+        # the plan ends parked by itself (deliberate: CRAM left parking to the final
+        # ``initialize-or-finalize``): the cleanup below must then find nothing to do, and
+        # an observer (``before_cleanup``) can tell a run that ended well from one that
+        # the cleanup had to rescue
+        await park_arms("park")
     finally:
         try:
+            if before_cleanup is not None:
+                before_cleanup()
             await cpl.shielded(_finalize([f"{t}-1" for t in objects]))
         finally:
             unsubscribe()
