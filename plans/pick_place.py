@@ -29,6 +29,7 @@ probes them in order.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -39,6 +40,7 @@ import cpl
 from executive import (
     Designator,
     DesignatorError,
+    GripperClosedCompletely,
     GripperLowLevelFailure,
     LocationDesignator,
     ManipulationLowLevelFailure,
@@ -55,9 +57,18 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
-from ._common import perform_ignoring, to_base, tool_frame, wrist_link
+from ._common import object_label, perform_ignoring, to_base, tool_frame, wrist_link
 
-__all__ = ["pick_up", "place", "placing_waypoints", "release_held"]
+_log = logging.getLogger(__name__)
+
+__all__ = [
+    "object_lost",
+    "pick_up",
+    "place",
+    "placing_waypoints",
+    "release_held",
+    "verify_grasp",
+]
 
 
 def _sides(arm: str, poses: Sequence[Pose]) -> dict[str, tuple[Pose, ...]]:
@@ -87,18 +98,84 @@ async def pick_up(
 
     1. in ``par``: ``setting-gripper`` to the opening, and ``reaching`` (its manipulation
        failure propagates); 2. ``grasping`` (failures ignored); 3. ``gripping`` (gripper
-       failures propagate after its own regrip); 4. ``ObjectAttached`` (to the wrist link);
-       5. ``lifting`` (failures ignored). Evaporation before step 4 leaves nothing attached.
-    Returns the object designator."""
+       failures propagate after its own regrip); the grasp is verified
+       (:func:`verify_grasp`); 4. ``ObjectAttached`` (to the wrist link); 5. ``lifting``
+       (manipulation failures ignored, but not a gripper failure: the object fell out);
+       the grasp is verified again. Evaporation before step 4 leaves nothing attached.
+    Returns the object designator.
+
+    Deliberate difference from CRAM: CRAM's ``lift`` ignored every manipulation failure,
+    and a ``gripper-closed-completely`` while lifting (the object fell out) with it, so
+    the belief kept the object in the hand and the plan went on to "place" nothing. Here
+    a lost object raises :class:`~executive.GripperClosedCompletely` from
+    :func:`object_lost`, which first tells the world model with ``ObjectDetached``, so
+    the fetch's regrasp scope looks for it again."""
     await cpl.par(
         cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=opening))),
         cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
     )
     await perform_ignoring(_arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure)
     await perform(an.action(type="gripping", gripper=arm, effort=effort))
+    verify_grasp(object_designator, arm, "gripping", attached=False)
     emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
-    await perform_ignoring(_arm_action("lifting", arm, lift_poses), ManipulationLowLevelFailure)
+
+    async def lift() -> None:
+        await perform(_arm_action("lifting", arm, lift_poses))
+
+    async def fell_out(failure: BaseException) -> None:
+        object_lost(object_designator, arm, "lifting", failure)
+
+    await cpl.with_failure_handling(
+        lift,
+        [
+            (GripperLowLevelFailure, fell_out),
+            (ManipulationLowLevelFailure, lambda _f: cpl.return_(None)),
+        ],
+    )
+    verify_grasp(object_designator, arm, "lifting")
     return object_designator
+
+
+#: A gripper opening (m) below this after gripping or lifting holds nothing: the fingers
+#: closed (fully closed is 0).
+MIN_HELD_OPENING = 0.004
+
+
+def verify_grasp(object_designator: Any, arm: str, after: str, *, attached: bool = True) -> None:
+    """Check that ``arm`` still holds something, from the gripper opening the world model
+    reports (the robot's finger joints): fingers closed below :data:`MIN_HELD_OPENING`
+    mean the object is not in the hand: :func:`object_lost` (``attached``: whether
+    ``ObjectAttached`` was emitted already; if not, the failure is only raised). A world
+    model without ``gripper_opening`` cannot tell; then nothing is checked (logged)."""
+    world = current_environment().world
+    opening_of = getattr(world, "gripper_opening", None)
+    if opening_of is None:
+        _log.debug("grasp after %s not verified: the world model has no gripper_opening", after)
+        return
+    opening = float(opening_of(arm))
+    if opening >= MIN_HELD_OPENING:
+        return
+    failure = GripperClosedCompletely(
+        f"after {after} the {arm} gripper is closed on nothing (opening {opening:.3f} m)",
+        action=after,
+        arm=arm,
+    )
+    if not attached:
+        raise failure
+    object_lost(object_designator, arm, after, failure)
+
+
+def object_lost(object_designator: Any, arm: str, during: str, failure: BaseException) -> None:
+    """The object is no longer in ``arm``: tell the world model (``ObjectDetached``: the
+    belief lets it fall where the hand is, to be perceived again) and raise
+    :class:`~executive.GripperClosedCompletely` (from ``failure``)."""
+    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    raise GripperClosedCompletely(
+        f"{object_name(object_designator)} was lost from the {arm} gripper while {during}",
+        action=during,
+        arm=arm,
+        object=object_label(object_designator),
+    ) from failure
 
 
 def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:
