@@ -136,33 +136,64 @@ async def pick_up(
     return object_designator
 
 
-#: A gripper opening (m) below this after gripping or lifting holds nothing: the fingers
-#: closed (fully closed is 0).
+#: The gripper openings (m) at which the fingers hold an object of each type: measured by
+#: closing the gripper at every grasp of the type in projection (a test re-measures them),
+#: with a margin of about 5 mm. An opening outside the range after gripping means the
+#: fingers closed on something else (the counter, a neighbour, the object's corner), or
+#: on nothing; after lifting, that the object fell out.
+GRIP_WIDTHS: dict[str, tuple[float, float]] = {
+    "cup": (0.07, 0.1),
+    "bowl": (0.012, 0.03),
+    "milk": (0.05, 0.1),
+    "breakfast-cereal": (0.062, 0.08),
+    "cereal": (0.062, 0.08),
+    "spoon": (0.022, 0.037),
+}
+#: For a type without a :data:`GRIP_WIDTHS` entry: any opening above this holds it.
 MIN_HELD_OPENING = 0.004
 
 
 def verify_grasp(object_designator: Any, arm: str, after: str, *, attached: bool = True) -> None:
-    """Check that ``arm`` still holds something, from the gripper opening the world model
-    reports (the robot's finger joints): fingers closed below :data:`MIN_HELD_OPENING`
-    mean the object is not in the hand: :func:`object_lost` (``attached``: whether
-    ``ObjectAttached`` was emitted already; if not, the failure is only raised). A world
-    model without ``gripper_opening`` cannot tell; then nothing is checked (logged)."""
+    """Check that ``arm`` holds the object, from the gripper opening the world model
+    reports (the robot's finger joints) against the type's :data:`GRIP_WIDTHS`. Outside
+    them the object is not (or no longer) held: :func:`object_lost` (``attached``: whether
+    ``ObjectAttached`` was emitted already; if not, the failure is only raised, nothing is
+    detached). A world model without ``gripper_opening`` cannot tell; then nothing is
+    checked (logged). Deliberate addition: CRAM trusted a grip that did not close
+    completely."""
     world = current_environment().world
     opening_of = getattr(world, "gripper_opening", None)
     if opening_of is None:
         _log.debug("grasp after %s not verified: the world model has no gripper_opening", after)
         return
     opening = float(opening_of(arm))
-    if opening >= MIN_HELD_OPENING:
+    otype = object_designator_type(object_designator)
+    low, high = GRIP_WIDTHS.get(otype, (MIN_HELD_OPENING, math.inf))
+    if low <= opening <= high:
         return
+    what = "closed on nothing" if opening < MIN_HELD_OPENING else "does not hold the " + otype
     failure = GripperClosedCompletely(
-        f"after {after} the {arm} gripper is closed on nothing (opening {opening:.3f} m)",
+        f"after {after} the {arm} gripper {what} (opening {opening:.3f} m,"
+        f" a {otype} is held at {low:.3f}-{high:.3f} m)",
         action=after,
         arm=arm,
     )
     if not attached:
         raise failure
     object_lost(object_designator, arm, after, failure)
+
+
+def object_designator_type(object_designator: Any) -> str:
+    """The type of the object an object designator (or its newest member) names."""
+    obj = (
+        object_designator.current()
+        if isinstance(object_designator, ObjectDesignator)
+        else object_designator
+    )
+    otype = obj.get("type") if hasattr(obj, "get") else None
+    if isinstance(otype, str):
+        return otype
+    return current_environment().world.object_type(object_name(obj))  # type: ignore[attr-defined,no-any-return]
 
 
 def object_lost(object_designator: Any, arm: str, during: str, failure: BaseException) -> None:

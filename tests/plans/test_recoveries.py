@@ -48,7 +48,7 @@ def test_gripper_closed_on_nothing_after_gripping_attaches_nothing(cup_world):
 
 
 def test_gripper_closed_after_lifting_is_a_lost_object(cup_world):
-    openings = iter([0.05, 0.0])  # held after gripping, empty after lifting
+    openings = iter([0.08, 0.0])  # held after gripping, empty after lifting
     cup_world.gripper_opening = lambda arm: next(openings)
     robot = make_robot(cup_world)
     with pytest.raises(GripperClosedCompletely, match="while lifting"):
@@ -142,3 +142,50 @@ def test_an_object_failing_again_later_is_tried_only_once_more(mrun, monkeypatch
     assert transported == ["bowl", "bowl"]
     assert isinstance(outcomes["bowl"].failure, ObjectNowhereToBeFound)
     assert outcomes["bowl"].retries == {"later": 1}
+
+
+def test_gripper_closed_on_something_else_is_not_a_grasp(cup_world):
+    """A cup is held at 7-10 cm; fingers stopped at 5 cm closed on something else (the
+    counter, a neighbour): the regrasp scope gets a gripper failure, nothing attached."""
+    cup_world.gripper_opening = lambda arm: 0.05
+    robot = make_robot(cup_world)
+    with pytest.raises(GripperClosedCompletely, match="does not hold the cup"):
+        robot.run(perform, _pick(cup_world))
+    assert cup_world.attached() == []
+
+
+def _grip_width(otype: str, grasp: str, arm: str) -> float | None:
+    """Close ``arm``'s gripper at ``grasp`` on a lone object in projection."""
+    projection = pytest.importorskip("projection")
+    from executive import Pose, knowledge
+
+    world = projection.World(seed=1)
+    try:
+        world.spawn_object("o", otype, Pose((0.6, 0.0, 0.9)))
+        tf = world.object_pose("o", "base_footprint").to_transform("o")
+        poses = knowledge.grasp_poses(otype, grasp, tf)
+        try:
+            world.move_tcp(**{arm: poses[2]})
+        except Exception:  # this arm cannot reach the grasp from here
+            return None
+        world.gripper(knowledge.gripper_opening(otype), arm)
+        world.gripper("grip", arm)
+        return world.gripper_opening(arm)
+    finally:
+        world.close()
+
+
+@pytest.mark.parametrize("otype", ["cup", "bowl", "milk", "breakfast-cereal", "spoon"])
+def test_grip_widths_hold_what_projection_measures(otype):
+    from executive import knowledge
+    from plans.pick_place import GRIP_WIDTHS
+
+    low, high = GRIP_WIDTHS[otype]
+    measured = [
+        w
+        for g in knowledge.grasps(otype)
+        for arm in ("left", "right")
+        if (w := _grip_width(otype, g, arm)) is not None
+    ]
+    assert measured, "no grasp reachable in the measuring set-up"
+    assert all(low <= w <= high for w in measured), measured
