@@ -67,6 +67,7 @@ __all__ = [
     "place",
     "placing_waypoints",
     "release_held",
+    "retreat",
     "verify_grasp",
 ]
 
@@ -99,8 +100,9 @@ async def pick_up(
     1. in ``par``: ``setting-gripper`` to the opening, and ``reaching`` (its manipulation
        failure propagates); 2. ``grasping`` (failures ignored); 3. ``gripping`` (gripper
        failures propagate after its own regrip); the grasp is verified
-       (:func:`verify_grasp`); 4. ``ObjectAttached`` (to the wrist link); 5. ``lifting``
-       (manipulation failures ignored, but not a gripper failure: the object fell out);
+       (:func:`verify_grasp`); a failed grip first backs out (:func:`retreat`);
+       4. ``ObjectAttached`` (to the wrist link); 5. ``lifting`` (manipulation failures
+       ignored, but not a gripper failure: the object fell out);
        the grasp is verified again. Evaporation before step 4 leaves nothing attached.
     Returns the object designator.
 
@@ -115,8 +117,16 @@ async def pick_up(
         cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
     )
     await perform_ignoring(_arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure)
-    await perform(an.action(type="gripping", gripper=arm, effort=effort))
-    verify_grasp(object_designator, arm, "gripping", attached=False)
+
+    async def grip() -> None:
+        await perform(an.action(type="gripping", gripper=arm, effort=effort))
+        verify_grasp(object_designator, arm, "gripping", attached=False)
+
+    async def back_out(failure: BaseException) -> None:
+        await retreat(arm, reach_poses, opening)
+        raise failure
+
+    await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
     emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
 
     async def lift() -> None:
@@ -134,6 +144,21 @@ async def pick_up(
     )
     verify_grasp(object_designator, arm, "lifting")
     return object_designator
+
+
+@cpl.plan(name="retreat")
+async def retreat(arm: str, reach_poses: Sequence[Pose], opening: float) -> None:
+    """After a failed grip, back out the way the hand came: open the gripper to the
+    pick's ``opening`` and move the tool back through the reach waypoints in reverse
+    (failures of both ignored: it is a best effort before the caller's own recovery).
+    Deliberate addition: CRAM's regrasp parked the arms straight from the grasp pose, and
+    a park from there sweeps the hand through the object and its neighbours."""
+    await perform_ignoring(
+        an.action(type="setting-gripper", gripper=arm, position=opening), GripperLowLevelFailure
+    )
+    await perform_ignoring(
+        _arm_action("retracting", arm, tuple(reversed(reach_poses))), ManipulationLowLevelFailure
+    )
 
 
 #: The gripper openings (m) at which the fingers hold an object of each type: measured by

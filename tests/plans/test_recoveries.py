@@ -189,3 +189,17 @@ def test_grip_widths_hold_what_projection_measures(otype):
     ]
     assert measured, "no grasp reachable in the measuring set-up"
     assert all(low <= w <= high for w in measured), measured
+
+
+def test_a_failed_grip_backs_out_before_the_failure_propagates(cup_world):
+    cup_world.gripper_opening = lambda arm: 0.05  # closed on something else
+    robot = make_robot(cup_world)
+    pick = _pick(cup_world)
+    with pytest.raises(GripperClosedCompletely):
+        robot.run(perform, pick)
+    reach = pick.reference().arguments["reach_poses"]
+    moves = [m.reference().arguments["left"] for m in robot.calls("arms")]
+    # reach (2), grasp (1), then back out through the reach waypoints in reverse
+    assert moves[3:] == list(reversed(reach))
+    opened = [m for m in robot.calls("grippers") if m.type == "moving-gripper-joint"]
+    assert len(opened) == 2  # opened to reach, opened again to back out
