@@ -36,6 +36,11 @@ BENCHMARKS: tuple[tuple[str, tuple[str, ...], str], ...] = (
         (),
         "perform of a motion and of an action vs asyncio tasks; flatness over 10k performs",
     ),
+    (
+        "blocking_driver.py",
+        ("--rounds", "3"),
+        "event-loop latency while a blocking driver runs in a worker thread vs on the loop",
+    ),
     ("projection_ops.py", ("--reps", "1000"), "projection operations vs raw PyBullet"),
     ("projection_costmaps.py", (), "costmap sampling and building vs numpy / rayTestBatch"),
     ("projection_demo.py", ("--seeds", "5"), "bowl transport and five-object demo in projection"),
@@ -189,6 +194,7 @@ def _campaign_markdown(directory: Path) -> str:
 def _quick_args(script: str) -> tuple[str, ...]:
     return {
         "cpl_overhead.py": ("--sizes", "1000", "--repeat", "1", "--waiters", "1", "100"),
+        "blocking_driver.py": ("--rounds", "1"),
         "projection_ops.py": ("--reps", "50"),
         "projection_costmaps.py": ("--reps", "50"),
         "projection_demo.py": ("--seeds", "1"),

@@ -7,9 +7,18 @@ evaporation (cancellation) always lets cleanup run. Everything public is here; t
 modules behind it are private.
 """
 
+from typing import Any
+
 from ._clock import Clock, ScaledClock, SystemClock, current_clock
 from ._eventlog import EventLog, load_events, tree_from_log
-from ._failure_handling import RetryCounter, retry, return_, with_failure_handling, with_retry
+from ._failure_handling import (
+    Error,
+    RetryCounter,
+    retry,
+    return_,
+    with_failure_handling,
+    with_retry,
+)
 from ._failures import CompositeFailure, Evaporated, PlanFailure, fail
 from ._fluents import (
     Fluent,
@@ -23,21 +32,45 @@ from ._fluents import (
     wait_for,
     whenever,
 )
-from ._forms import Tagged, par, par_loop, partial_order, pursue, seq, tag, try_all, try_in_order
+from ._forms import (
+    Tagged,
+    par,
+    par_loop,
+    partial_order,
+    pursue,
+    seq,
+    tag,
+    try_all,
+    try_each_in_order,
+    try_in_order,
+)
 from ._instruments import Instrument
 from ._lazy import LazyList
 from ._plan import Plan, PlanCall, plan
+from ._policies import (
+    Policy,
+    PolicyConditionMet,
+    PolicyFailure,
+    PolicyInitFailed,
+    PolicyTimeout,
+    timeout_policy,
+    with_policies,
+    with_policy,
+)
 from ._queries import ancestors, find_tasks, previous_sibling, walk
-from ._runtime import RunHistory, run, task_tree, top_level
+from ._runtime import RunHistory, RunTimeout, run, task_tree, top_level
 from ._status import Status
 from ._suspension import on_suspension, with_task_suspended
+from ._tags import Tags, with_tags
 from ._task import Task, current_task, spawn, with_task
+from ._task_fluents import task_alive, task_dead, task_failed, task_succeeded
 from ._tree import FailureInfo, TaskNode, snapshot
 from ._waiting import shielded, sleep
 
 __all__ = [
     "Clock",
     "CompositeFailure",
+    "Error",
     "Evaporated",
     "EventLog",
     "FailureInfo",
@@ -47,12 +80,19 @@ __all__ = [
     "Plan",
     "PlanCall",
     "PlanFailure",
+    "Policy",
+    "PolicyConditionMet",
+    "PolicyFailure",
+    "PolicyInitFailed",
+    "PolicyTimeout",
     "RetryCounter",
     "RunHistory",
+    "RunTimeout",
     "ScaledClock",
     "Status",
     "SystemClock",
     "Tagged",
+    "Tags",
     "Task",
     "TaskNode",
     "ancestors",
@@ -84,16 +124,54 @@ __all__ = [
     "snapshot",
     "spawn",
     "tag",
+    "task_alive",
+    "task_dead",
+    "task_failed",
+    "task_succeeded",
     "task_tree",
+    "timeout_policy",
     "top_level",
     "tree_from_log",
     "try_all",
+    "try_each_in_order",
     "try_in_order",
     "wait_for",
     "walk",
     "whenever",
     "with_failure_handling",
+    "with_policies",
+    "with_policy",
     "with_retry",
+    "with_tags",
     "with_task",
     "with_task_suspended",
 ]
+
+
+def _fixup_module_metadata(module_name: str, namespace: dict[str, Any]) -> None:
+    """Make public names report their public module (``cpl.PlanFailure``, not
+    ``cpl._failures.PlanFailure``) in reprs, tracebacks, pickles and event logs, as trio's
+    ``fixup_module_metadata`` does. Names keep working from the private module too."""
+    seen: set[int] = set()
+
+    def fix(name: str, obj: object) -> None:
+        if id(obj) in seen:
+            return
+        seen.add(id(obj))
+        mod = getattr(obj, "__module__", None)
+        if isinstance(mod, str) and mod.startswith(module_name + "._"):
+            try:
+                setattr(obj, "__module__", module_name)  # noqa: B010 (any object)
+            except (AttributeError, TypeError):  # a builtin or slot-less object
+                return
+            if isinstance(obj, type):
+                for attr_name, attr in vars(obj).items():
+                    if callable(attr) and getattr(attr, "__module__", None) == mod:
+                        fix(attr_name, attr)
+
+    for name in namespace.get("__all__", ()):
+        fix(name, namespace[name])
+
+
+_fixup_module_metadata(__name__, globals())
+del _fixup_module_metadata

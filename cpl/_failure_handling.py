@@ -10,11 +10,33 @@ are called in order with the failure; a handler may
 - return normally: it *declines*, the next matching clause is tried, and when none is left
   the **same failure object** propagates.
 
-Deliberate differences from CRAM, forced by Python:
+When handlers run: two modes.
 
-- CRAM's handlers run *before* unwinding (``handler-bind``); ours run after the body's
-  ``finally`` blocks have run and its child tasks are dead. A handler therefore sees a
-  world in which the failing code's cleanup has already happened.
+- **After unwinding** (the default): handlers run after the body's ``finally`` blocks have
+  run and its child tasks are dead. A handler sees a world in which the failing code's
+  cleanup has already happened. Right for most robot plans: a retry handler that moves
+  the robot must not race the failing branch's cleanup (parking the arm, closing the
+  gripper), and async handlers are allowed. This differs from CRAM.
+- **Before unwinding** (``before_unwinding=True``, CRAM's ``handler-bind``): handlers run at
+  the point where the failure is signalled, while the failing code's state is still there:
+  at ``cpl.fail(...)`` in the form's own task, and where a child's failure enters it (a
+  ``join``, a ``par``/``pursue``/``try_all`` that fails, ``try_in_order`` giving up). Then
+  ``retry()``/``return_()`` unwind from there (cleanups run afterwards, as in CRAM); a
+  declining handler lets the failure go on unwinding, and the form does not call it a
+  second time. Handlers must be synchronous here (a signal point such as ``fail`` is not
+  async): an async handler is a ``TypeError``. A failure raised with a plain ``raise`` in
+  the form's own task has no signal point: it is handled after unwinding. Right when the
+  handler must inspect or record the failing state (which tasks were alive, the failing
+  branch's designator) before cleanup changes it. As in CRAM, handlers of a parent task
+  never run in a child task: a child's failure reaches them at the join.
+
+Exception types in clauses:
+
+- A clause naming ``Exception`` also catches :class:`~cpl.PlanFailure` (a ``PlanFailure`` is
+  an ``Exception`` here). CRAM's ``error`` clause does not catch plan failures (there a
+  plan failure is a serious condition, not an error). For CRAM's reading, name
+  :class:`cpl.Error`: it matches every ``Exception`` that is *not* a plan failure
+  (programming errors, driver exceptions).
 - CRAM wraps Lisp errors from child tasks in envelopes. Here an exception keeps its type
   across every join, so a clause naming ``KeyError`` catches a ``KeyError`` from a child
   task directly.
@@ -28,12 +50,18 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Iterable, Mapping
+from contextvars import ContextVar
 from typing import Any, NoReturn, TypeAlias
 
+from ._failures import PlanFailure
+from ._scheduling import CURRENT_TASK
+
 __all__ = [
+    "Error",
     "RetryCounter",
     "retry",
     "return_",
+    "signal_failure",
     "with_failure_handling",
     "with_retry",
 ]
@@ -43,16 +71,105 @@ Handler: TypeAlias = Callable[[Any], Any]
 Handlers: TypeAlias = Mapping[ExcTypes, Handler] | Iterable[tuple[ExcTypes, Handler]]
 
 
+class _ErrorMeta(type):
+    def __instancecheck__(cls, obj: object) -> bool:
+        return isinstance(obj, Exception) and not isinstance(obj, PlanFailure)
+
+    def __subclasscheck__(cls, sub: type) -> bool:
+        return issubclass(sub, Exception) and not issubclass(sub, PlanFailure)
+
+
+class Error(Exception, metaclass=_ErrorMeta):
+    """CRAM's ``error`` clause type: in a failure-handling clause it matches every
+    ``Exception`` that is not a :class:`~cpl.PlanFailure`. (Use it as a clause type;
+    Python's own ``except`` ignores the matching rule and would catch nothing.)"""
+
+
 class _Retry(BaseException):
-    """Control flow of :func:`retry` (a BaseException so ``except Exception`` skips it)."""
+    """Control flow of :func:`retry` (a BaseException so ``except Exception`` skips it).
+    ``scope`` is the form it belongs to when a before-unwinding handler raised it
+    (``None``: the innermost form)."""
+
+    def __init__(self, scope: _Scope | None = None) -> None:
+        super().__init__()
+        self.scope = scope
 
 
 class _Return(BaseException):
     """Control flow of :func:`return_`."""
 
-    def __init__(self, value: Any) -> None:
+    def __init__(self, value: Any, scope: _Scope | None = None) -> None:
         super().__init__()
         self.value = value
+        self.scope = scope
+
+
+class _Scope:
+    """One ``with_failure_handling(..., before_unwinding=True)`` form in progress."""
+
+    __slots__ = ("attempt", "clauses", "owner")
+
+    def __init__(self, clauses: list[tuple[tuple[type[BaseException], ...], Handler]]) -> None:
+        self.clauses = clauses
+        # Invariant: the cpl task running the form; its handlers run only in that task.
+        self.owner = CURRENT_TASK.get()
+        # Invariant: bumped on every run of the body, so a failure object raised again by a
+        # later attempt is dispatched again.
+        self.attempt = 0
+
+
+#: The before-unwinding forms around the running code (innermost last). A context
+#: variable: each asyncio task sees its own stack, and every scope names its owner task.
+_EARLY: ContextVar[tuple[_Scope, ...]] = ContextVar("cpl_early_handlers", default=())
+_TRIED = "_cpl_early_handled"
+
+
+def _mark(failure: BaseException, scope: _Scope) -> None:
+    try:
+        tried = failure.__dict__.setdefault(_TRIED, set())
+    except AttributeError:  # an exception without __dict__: it is dispatched again later
+        return
+    tried.add((id(scope), scope.attempt))
+
+
+def _was_tried(failure: BaseException, scope: _Scope) -> bool:
+    tried: set[tuple[int, int]] | None = getattr(failure, "__dict__", {}).get(_TRIED)
+    return tried is not None and (id(scope), scope.attempt) in tried
+
+
+def signal_failure(failure: BaseException) -> None:
+    """Run the before-unwinding handlers of the current task for ``failure``, innermost
+    form first, at the point where it is signalled. Returns if all declined; a handler's
+    ``retry()``/``return_()`` raises its control flow from here (bound to its form).
+    Called by ``cpl.fail`` and by every join point; cheap when no such form is active."""
+    scopes = _EARLY.get()
+    if not scopes or not isinstance(failure, Exception):
+        return
+    me = CURRENT_TASK.get()
+    for scope in reversed(scopes):
+        if scope.owner is not me or _was_tried(failure, scope):
+            continue
+        _mark(failure, scope)
+        for types, handler in scope.clauses:
+            if not isinstance(failure, types):
+                continue
+            try:
+                res = handler(failure)
+            except _Retry as ctl:
+                ctl.scope = ctl.scope or scope
+                raise
+            except _Return as ctl:
+                ctl.scope = ctl.scope or scope
+                raise
+            if inspect.isawaitable(res):
+                if inspect.iscoroutine(res):
+                    res.close()
+                raise TypeError(
+                    f"handler {getattr(handler, '__name__', handler)!r} is async, but handlers "
+                    "that run before unwinding must be synchronous (they run inside "
+                    "cpl.fail and joins); make it a plain function or use the default "
+                    "after-unwinding mode"
+                )
 
 
 def retry() -> NoReturn:
@@ -118,12 +235,19 @@ async def _dispatch(
     return None
 
 
-async def with_failure_handling(body: Callable[[], Awaitable[Any]], handlers: Handlers) -> Any:
+async def with_failure_handling(
+    body: Callable[[], Awaitable[Any]],
+    handlers: Handlers,
+    *,
+    before_unwinding: bool = False,
+) -> Any:
     """Run ``body()`` with failure handlers (CRAM's ``with-failure-handling``).
 
     ``handlers`` is an ordered mapping or a sequence of ``(type or tuple of types, handler)``;
-    a handler takes the failure and may be sync or async. Returns the body's value, or the
-    value given to :func:`return_`. Works inside and outside a top level.
+    a handler takes the failure and may be sync or async (sync only with
+    ``before_unwinding=True``; see the module docstring for when to use which mode).
+    Returns the body's value, or the value given to :func:`return_`. Works inside and
+    outside a top level. Evaporation is never handled: it goes through unchanged.
     """
     if not callable(body) or inspect.iscoroutine(body):
         raise TypeError(
@@ -131,26 +255,49 @@ async def with_failure_handling(body: Callable[[], Awaitable[Any]], handlers: Ha
             "called again on every retry), not a coroutine object"
         )
     clauses = _clauses(handlers)
-    while True:
-        try:
-            aw = body()
-            if not inspect.isawaitable(aw):
+    scope: _Scope | None = None
+    token = None
+    if before_unwinding:
+        for _types, handler in clauses:
+            if inspect.iscoroutinefunction(handler):
                 raise TypeError(
-                    f"the failure-handling body returned {type(aw).__name__}, not an "
-                    "awaitable; pass an async function"
+                    f"handler {getattr(handler, '__name__', handler)!r} is async; handlers "
+                    "that run before unwinding must be synchronous"
                 )
-            return await aw
-        except _Retry:
-            continue
-        except _Return as ret:
-            return ret.value
-        except Exception as failure:
-            outcome = await _dispatch(clauses, failure)
-            if outcome is _RETRY:
+        scope = _Scope(clauses)
+        token = _EARLY.set((*_EARLY.get(), scope))
+    try:
+        while True:
+            if scope is not None:
+                scope.attempt += 1
+            try:
+                aw = body()
+                if not inspect.isawaitable(aw):
+                    raise TypeError(
+                        f"the failure-handling body returned {type(aw).__name__}, not an "
+                        "awaitable; pass an async function"
+                    )
+                return await aw
+            except _Retry as ctl:
+                if ctl.scope is not None and ctl.scope is not scope:
+                    raise  # a retry of an outer form, decided before unwinding
                 continue
-            if isinstance(outcome, _Return):
-                return outcome.value
-            raise failure
+            except _Return as ctl:
+                if ctl.scope is not None and ctl.scope is not scope:
+                    raise
+                return ctl.value
+            except Exception as failure:
+                if scope is not None and _was_tried(failure, scope):
+                    raise  # its handlers ran (and declined) before unwinding
+                outcome = await _dispatch(clauses, failure)
+                if outcome is _RETRY:
+                    continue
+                if isinstance(outcome, _Return):
+                    return outcome.value
+                raise failure
+    finally:
+        if token is not None:
+            _EARLY.reset(token)
 
 
 class RetryCounter:

@@ -100,22 +100,27 @@ def fail(
     a plan failure must be something the handlers of a plan can name.
     """
     if failure is None or isinstance(failure, str):
-        raise PlanFailure(failure, **details)
-    if isinstance(failure, type):
+        exc: PlanFailure = PlanFailure(failure, **details)
+    elif isinstance(failure, type):
         if not issubclass(failure, PlanFailure):
             raise TypeError(
                 f"fail() needs a PlanFailure subclass, got {failure.__name__}; derive your "
                 "failure from cpl.PlanFailure or raise it directly"
             )
-        raise failure(**details)
-    if isinstance(failure, PlanFailure):
+        exc = failure(**details)
+    elif isinstance(failure, PlanFailure):
         if details:
             failure.details.update(details)
-        raise failure
-    raise TypeError(
-        f"fail() needs a PlanFailure, a PlanFailure subclass or a message, got "
-        f"{type(failure).__name__}: raise ordinary exceptions with `raise`"
-    )
+        exc = failure
+    else:
+        raise TypeError(
+            f"fail() needs a PlanFailure, a PlanFailure subclass or a message, got "
+            f"{type(failure).__name__}: raise ordinary exceptions with `raise`"
+        )
+    from ._failure_handling import signal_failure
+
+    signal_failure(exc)  # before-unwinding handlers run here, at the signal point
+    raise exc
 
 
 def _short(value: Any, limit: int = 60) -> str:

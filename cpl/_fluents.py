@@ -638,7 +638,7 @@ def pulsed(fluent: Fluent[Any], handle_missed: HandleMissed = "once") -> Fluent[
 # --------------------------------------------------------------------------- waiting
 
 
-async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
+async def wait_for(fluent: Fluent[T] | T, timeout: float | None = None) -> T | None:
     """Wait until ``fluent.value`` is truthy and return that value.
 
     Returns at once if it already is. Every pulse re-checks (a pulse that leaves the value

@@ -33,12 +33,27 @@ import inspect
 from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
 from typing import Any
 
+from ._failure_handling import signal_failure
 from ._failures import CompositeFailure, PlanFailure
-from ._scheduling import block_until
+from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
-from ._task import Task, _require_task, as_coroutine, join_owned
+from ._task import Task, _require_task, as_coroutine, join_owned, run_joined
 
-__all__ = ["par", "par_loop", "partial_order", "pursue", "seq", "tag", "try_all", "try_in_order"]
+__all__ = [
+    "AllSucceed",
+    "FirstEnds",
+    "FirstSucceeds",
+    "ParallelPolicy",
+    "par",
+    "par_loop",
+    "partial_order",
+    "pursue",
+    "seq",
+    "tag",
+    "try_all",
+    "try_each_in_order",
+    "try_in_order",
+]
 
 _DEAD = frozenset({Status.SUCCEEDED, Status.FAILED, Status.EVAPORATED})
 
@@ -65,8 +80,8 @@ class Tagged:
 
     def __await__(self) -> Generator[Any, None, Any]:
         parent = _require_task(f"cpl.tag({self.name!r})")
-        child = self.make_task(parent).start()
-        return join_owned(child).__await__()
+        child = self.make_task(parent)
+        return run_joined(child).__await__()
 
 
 def tag(name: str, aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> Tagged:
@@ -156,68 +171,148 @@ async def try_in_order(*aws: Branch) -> Any:
             _close(rest)
     if not failures:
         return None
-    raise CompositeFailure(failures)
+    composite = CompositeFailure(failures)
+    signal_failure(composite)
+    raise composite
+
+
+async def try_each_in_order(
+    values: Iterable[Any], fn: Callable[[Any], Awaitable[Any]]
+) -> Any:
+    """Call ``fn(value)`` for each value in turn, in the current task, until one succeeds;
+    return its result (CRAM's ``try-each-in-order``). Only :class:`~cpl.PlanFailure` moves
+    on to the next value; all failed: :class:`~cpl.CompositeFailure` with the failures in
+    order; no values: ``None``. ``values`` may be lazy (a generator, a ``cpl.LazyList``):
+    it is consumed only as far as needed.
+    """
+    failures: list[BaseException] = []
+    for value in values:
+        try:
+            return await fn(value)
+        except PlanFailure as failure:
+            failures.append(failure)
+    if not failures:
+        return None
+    composite = CompositeFailure(failures)
+    signal_failure(composite)
+    raise composite
 
 
 # ------------------------------------------------------------------ parallel forms
+class ParallelPolicy:
+    """How a parallel form decides from its branches' ends (CRAM's watcher body), as a
+    small object in the manner of py_trees' ``ParallelPolicy``.
+
+    :meth:`decide` is called synchronously once per branch end, until it returns ``True``
+    (decided); ``sup.alive`` already counts that branch out. It records the outcome with
+    ``sup.succeed(value)`` or ``sup.fail(failure)``. When it never decides and no branch is
+    left, the form's value is ``None``.
+    """
+
+    __slots__ = ("kind", "loser_reason")
+
+    def __init__(self, kind: str, loser_reason: str) -> None:
+        self.kind = kind  # the form node's kind in the task tree
+        self.loser_reason = loser_reason  # why the branches still alive are evaporated
+
+    def decide(self, sup: _Supervisor, task: Task) -> bool:
+        raise NotImplementedError
+
+
+class AllSucceed(ParallelPolicy):
+    """``par``, ``par_loop``, ``partial_order``: the first failure decides; otherwise, once
+    no branch is alive, the list of all values (``None`` for an evaporated branch)."""
+
+    __slots__ = ()
+
+    def decide(self, sup: _Supervisor, task: Task) -> bool:
+        if task.state is Status.FAILED:
+            return sup.fail(task.failure)
+        if sup.alive == 0:
+            return sup.succeed(
+                [b.result if b.state is Status.SUCCEEDED else None for b in sup.branches]
+            )
+        return False
+
+
+class FirstEnds(ParallelPolicy):
+    """``pursue``: the first branch to succeed or fail decides; evaporated branches are
+    ignored (all evaporated: ``None``)."""
+
+    __slots__ = ()
+
+    def decide(self, sup: _Supervisor, task: Task) -> bool:
+        if task.state is Status.SUCCEEDED:
+            return sup.succeed(task.result)
+        if task.state is Status.FAILED:
+            return sup.fail(task.failure)
+        return sup.alive == 0 and sup.succeed(None)
+
+
+class FirstSucceeds(ParallelPolicy):
+    """``try_all``: the first success decides; plan failures are collected and, once all
+    branches failed, raised as :class:`~cpl.CompositeFailure`; any other exception decides
+    at once."""
+
+    __slots__ = ()
+
+    def decide(self, sup: _Supervisor, task: Task) -> bool:
+        if task.state is Status.SUCCEEDED:
+            return sup.succeed(task.result)
+        if task.state is Status.FAILED and not isinstance(task.failure, PlanFailure):
+            return sup.fail(task.failure)
+        if sup.alive == 0:
+            failures = [b.failure for b in sup.branches if b.state is Status.FAILED]
+            if failures:
+                return sup.fail(CompositeFailure([f for f in failures if f is not None]))
+            return sup.succeed(None)
+        return False
+
+
+_PAR = AllSucceed("par", "a sibling branch of par failed")
+_PAR_LOOP = AllSucceed("par-loop", "a sibling in par_loop failed")
+_PARTIAL_ORDER = AllSucceed("partial-order", "a sibling step of partial_order failed")
+_PURSUE = FirstEnds("pursue", "pursue: another branch finished first")
+_TRY_ALL = FirstSucceeds("try-all", "try_all: another branch succeeded")
+
+
 class _Supervisor:
-    """Decides a parallel form from its branches' ends (CRAM's watcher). Called
-    synchronously from each branch's finish; O(1) per branch."""
+    """Applies a :class:`ParallelPolicy` to a form's branches as they end; told
+    synchronously from each branch's finish, O(1) per branch."""
 
-    __slots__ = ("alive", "branches", "decided", "failure", "kind", "value", "waiter")
+    __slots__ = ("alive", "branches", "decided", "failure", "policy", "value", "waiter")
 
-    def __init__(self, kind: str, branches: list[Task]) -> None:
-        self.kind = kind
+    def __init__(self, policy: ParallelPolicy, branches: list[Task]) -> None:
+        self.policy = policy
         self.branches = branches
-        self.alive = len(branches)
-        # Invariant: once decided is True, value/failure hold the form's outcome.
+        self.alive = len(branches)  # branches not dead yet
+        # Invariant: once decided is True, value/failure hold the form's outcome and no
+        # further branch end changes them.
         self.decided = False
         self.value: Any = None
         self.failure: BaseException | None = None
+        # Invariant: the future the form awaits, or None while it does not wait.
         self.waiter: asyncio.Future[None] | None = None
+
+    def succeed(self, value: Any) -> bool:
+        self.decided, self.value = True, value
+        return True
+
+    def fail(self, failure: BaseException | None) -> bool:
+        self.decided, self.failure = True, failure
+        return True
 
     def finished(self, task: Task) -> None:
         self.alive -= 1
         if not self.decided:
-            self._decide(task)
+            self.policy.decide(self, task)
         if (self.decided or self.alive == 0) and self.waiter is not None:
             if not self.waiter.done():
                 self.waiter.set_result(None)
 
-    def _decide(self, task: Task) -> None:
-        kind, state = self.kind, task.state
-        if kind in ("par", "par-loop", "partial-order"):
-            if state is Status.FAILED:
-                self._fail(task.failure)
-            elif self.alive == 0:
-                self.decided = True
-                self.value = [
-                    b.result if b.state is Status.SUCCEEDED else None for b in self.branches
-                ]
-        elif kind == "pursue":
-            if state is Status.SUCCEEDED:
-                self.decided, self.value = True, task.result
-            elif state is Status.FAILED:
-                self._fail(task.failure)
-            elif self.alive == 0:
-                self.decided = True
-        else:  # try-all
-            if state is Status.SUCCEEDED:
-                self.decided, self.value = True, task.result
-            elif state is Status.FAILED and not isinstance(task.failure, PlanFailure):
-                self._fail(task.failure)
-            elif self.alive == 0:
-                self.decided = True
-                failures = [b.failure for b in self.branches if b.state is Status.FAILED]
-                if failures:
-                    self.failure = CompositeFailure([f for f in failures if f is not None])
 
-    def _fail(self, failure: BaseException | None) -> None:
-        self.decided = True
-        self.failure = failure
-
-
-async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) -> Any:
+async def _parallel(policy: ParallelPolicy, branches: Sequence[Branch]) -> Any:
+    kind = policy.kind
     try:
         owner = _require_task(f"cpl.{kind.replace('-', '_')}")
     except RuntimeError:
@@ -225,9 +320,7 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
             _close(b)
         raise
     node = Task(None, kind, kind=kind, parent=owner)
-    loop = asyncio.get_running_loop()
-    node.start_time = loop.time()
-    node._set_state(Status.RUNNING)
+    node._begin_form()
     tasks: list[Task] = []
     try:
         for i, b in enumerate(branches):
@@ -237,17 +330,13 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
             t.evaporate(f"{kind} was given an invalid branch")
         for b in branches[len(tasks) :]:
             _close(b)
-        node.end_time = loop.time()
-        node.failure = exc
-        node._set_state(Status.FAILED)
+        node._end_form(Status.FAILED, None, exc)
         raise
-    sup = _Supervisor(kind, tasks)
+    sup = _Supervisor(policy, tasks)
     for t in tasks:
         t._on_finish = sup.finished
-    if owner._active_forms is None:
-        owner._active_forms = [node]
-    else:
-        owner._active_forms.append(node)
+    owner._push_form(node)
+    loop = asyncio.get_running_loop()
     outcome = Status.SUCCEEDED
     try:
         for t in tasks:
@@ -261,28 +350,29 @@ async def _parallel(kind: str, branches: Sequence[Branch], loser_reason: str) ->
             sup.waiter = fut
             await block_until(fut)
             sup.waiter = None
+    except GeneratorExit:
+        raise  # closed without running (an abandoned loop): nothing can be awaited
     except BaseException:
         outcome = Status.EVAPORATED
         await _end_branches(tasks, sup, f"{kind} was evaporated")
         raise
     else:
         if sup.alive:
-            await _end_branches(tasks, sup, loser_reason)
+            try:
+                await _end_branches(tasks, sup, policy.loser_reason)
+            except BaseException:
+                # Cancelled while the losers died: the form did not complete.
+                outcome = Status.EVAPORATED
+                raise
         if sup.failure is not None:
             outcome = Status.FAILED
+            signal_failure(sup.failure)
             raise sup.failure
         return sup.value
     finally:
         owner.waiting_on = None
-        owner._active_forms.remove(node)
-        node.end_time = loop.time()
-        if outcome is Status.SUCCEEDED:
-            node.result = sup.value
-        else:
-            node.failure = sup.failure
-        if node.state is Status.SUSPENDED and outcome is Status.SUCCEEDED:
-            node._set_state(Status.RUNNING)
-        node._set_state(outcome)
+        owner._pop_form(node)
+        node._end_form(outcome, sup.value, sup.failure)
 
 
 async def _end_branches(tasks: list[Task], sup: _Supervisor, reason: str) -> None:
@@ -292,19 +382,20 @@ async def _end_branches(tasks: list[Task], sup: _Supervisor, reason: str) -> Non
     for t in tasks:
         if t.state not in _DEAD:
             t.evaporate(reason, by=by)
-    pending: BaseException | None = None
     loop = asyncio.get_running_loop()
-    while sup.alive > 0:
-        fut = loop.create_future()
-        sup.waiter = fut
-        try:
-            await fut
-        except asyncio.CancelledError as exc:
-            pending = pending or exc
-        finally:
-            sup.waiter = None
-    if pending is not None:
-        raise pending
+    deferred = DeferredCancellation()
+    try:
+        while sup.alive > 0:
+            fut = loop.create_future()
+            sup.waiter = fut
+            try:
+                await fut
+            except asyncio.CancelledError as exc:
+                deferred.defer(exc)
+            finally:
+                sup.waiter = None
+    finally:
+        deferred.close()
 
 
 async def par(*aws: Branch) -> list[Any]:
@@ -315,7 +406,7 @@ async def par(*aws: Branch) -> list[Any]:
     """
     if not aws:
         return []
-    result: list[Any] = await _parallel("par", aws, "a sibling branch of par failed")
+    result: list[Any] = await _parallel(_PAR, aws)
     return result
 
 
@@ -324,7 +415,7 @@ async def pursue(*aws: Branch) -> Any:
     failure if it failed. The others are evaporated (and waited for)."""
     if not aws:
         return None
-    return await _parallel("pursue", aws, "pursue: another branch finished first")
+    return await _parallel(_PURSUE, aws)
 
 
 async def try_all(*aws: Branch) -> Any:
@@ -333,7 +424,7 @@ async def try_all(*aws: Branch) -> Any:
     :class:`~cpl.CompositeFailure`. A programming error propagates at once."""
     if not aws:
         return None
-    return await _parallel("try-all", aws, "try_all: another branch succeeded")
+    return await _parallel(_TRY_ALL, aws)
 
 
 async def par_loop(iterable: Iterable[Any], fn: Callable[[Any], Awaitable[Any]]) -> list[Any]:
@@ -342,7 +433,7 @@ async def par_loop(iterable: Iterable[Any], fn: Callable[[Any], Awaitable[Any]])
     branches = [fn(item) for item in iterable]
     if not branches:
         return []
-    result: list[Any] = await _parallel("par-loop", branches, "a sibling in par_loop failed")
+    result: list[Any] = await _parallel(_PAR_LOOP, branches)
     return result
 
 
@@ -381,9 +472,7 @@ async def partial_order(
             b._constraints = [a]
         else:
             b._constraints.append(a)
-    result: list[Any] = await _parallel(
-        "partial-order", step_list, "a sibling step of partial_order failed"
-    )
+    result: list[Any] = await _parallel(_PARTIAL_ORDER, step_list)
     return result
 
 

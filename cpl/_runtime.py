@@ -9,11 +9,14 @@ keeps the last run of each *named* top level (CRAM's ``*top-level-task-trees*``)
 from __future__ import annotations
 
 import asyncio
+import inspect
+import logging
 import weakref
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
+from ._clock import Clock
 from ._failure_handling import _Retry, _Return
 from ._instruments import Instrument, InstrumentSet
 from ._scheduling import CURRENT_TASK
@@ -22,7 +25,9 @@ from ._task import Task, as_coroutine, wait_dead
 if TYPE_CHECKING:
     from ._tree import TaskNode
 
-__all__ = ["Run", "RunHistory", "current_roots", "run", "task_tree", "top_level"]
+log = logging.getLogger("cpl")
+
+__all__ = ["Run", "RunHistory", "RunTimeout", "current_roots", "run", "task_tree", "top_level"]
 
 
 class Run:
@@ -93,13 +98,27 @@ async def top_level(
     name: str | None = None,
     instruments: Iterable[Instrument] = (),
     history: RunHistory | None = None,
+    timeout: float | None = None,
+    cleanup_timeout: float = 30.0,
 ) -> Any:
     """Run a plan as a top-level task inside a running event loop.
 
     Returns the plan's value or raises its failure (the same object), and returns only when
     every task it started is dead. Top levels do not nest (``RuntimeError``). If the caller
     is cancelled, the plan is evaporated and waited for, then the cancellation propagates.
+
+    ``timeout`` (seconds of the loop clock) bounds the run: when it passes, the plan is
+    evaporated, its cleanup gets ``cleanup_timeout`` more seconds, and :class:`RunTimeout`
+    is raised. It cannot hang: if the cleanup does not end in time either, ``RunTimeout``
+    is raised anyway and names the tasks still alive (``stuck``); they are abandoned (a
+    task that never awaits cannot be stopped by anyone on asyncio).
+
+    Runs on asyncio only: under anyio use the asyncio backend (``anyio.run(main,
+    backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
+    ``docs/async_interop.md``).
     """
+    _require_asyncio("cpl.top_level", fn)
+    _check_timeouts(timeout, cleanup_timeout)
     if CURRENT_TASK.get() is not None:
         raise RuntimeError(
             "top-level calls cannot be nested: you are already inside cpl task "
@@ -120,15 +139,22 @@ async def top_level(
     for hook in run_.instruments.run_started:
         hook(root)
     _ACTIVE.add(root)
+    loop = asyncio.get_running_loop()
     try:
         root.start()
         try:
-            while root.alive:
-                fut = root._add_waiter()
-                try:
-                    await fut
-                finally:
-                    root._drop_waiter(fut)
+            if timeout is None:
+                while root.alive:
+                    fut = root._add_waiter()
+                    try:
+                        await fut
+                    finally:
+                        root._drop_waiter(fut)
+            elif not await _wait_dead_until(root, loop.time() + timeout):
+                root.evaporate(f"the run exceeded its timeout of {timeout:g} s", by=("timeout",))
+                if not await _wait_dead_until(root, loop.time() + cleanup_timeout):
+                    raise RunTimeout(timeout, cleanup_timeout, root)
+                raise RunTimeout(timeout, None, root)
         except asyncio.CancelledError:
             root.evaporate("the caller of top_level was cancelled")
             await wait_dead([root])
@@ -153,19 +179,32 @@ def run(
     fn: Callable[..., Awaitable[Any]] | Awaitable[Any],
     *args: Any,
     name: str | None = None,
-    clock: Any = None,
+    clock: Clock | None = None,
     instruments: Iterable[Instrument] = (),
     history: RunHistory | None = None,
     debug: bool | None = None,
+    timeout: float | None = None,
+    cleanup_timeout: float = 30.0,
 ) -> Any:
     """Run a plan in a new event loop (like ``asyncio.run``) as a top level.
 
     ``clock`` installs a clock policy on the loop (``cpl.testing.MockClock()`` for tests:
     virtual time that jumps when everything waits). Returns the plan's value or raises its
-    failure; every task is dead when it returns.
+    failure; every task is dead when it returns. ``timeout``/``cleanup_timeout`` as in
+    :func:`top_level`; when tasks are stuck even after the cleanup time, the loop is closed
+    without waiting for them (``asyncio.run`` would hang there) and :class:`RunTimeout`
+    says which they are.
     """
     if CURRENT_TASK.get() is not None:
         raise RuntimeError("cpl.run cannot be called from inside a cpl task; await the plan")
+    if _running_loop() is not None:
+        _close(fn)
+        raise RuntimeError(
+            "cpl.run starts its own event loop and cannot be called while one is running in "
+            "this thread (an asyncio application, anyio.run, a pytest-asyncio test): use "
+            "`await cpl.top_level(plan, ...)` there"
+        )
+    _check_timeouts(timeout, cleanup_timeout)
 
     def factory() -> asyncio.AbstractEventLoop:
         loop = asyncio.new_event_loop()
@@ -173,5 +212,119 @@ def run(
             clock.install(loop)
         return loop
 
-    with asyncio.Runner(debug=debug, loop_factory=factory) as runner:
-        return runner.run(top_level(fn, *args, name=name, instruments=instruments, history=history))
+    runner = asyncio.Runner(debug=debug, loop_factory=factory)
+    abandon = False
+    try:
+        return runner.run(
+            top_level(
+                fn,
+                *args,
+                name=name,
+                instruments=instruments,
+                history=history,
+                timeout=timeout,
+                cleanup_timeout=cleanup_timeout,
+            )
+        )
+    except RunTimeout as exc:
+        abandon = bool(exc.stuck)
+        raise
+    finally:
+        if abandon:
+            # The stuck tasks would make Runner.close() wait for them forever: close their
+            # coroutines (their finally blocks run, but cannot await) and the loop.
+            _abandon(runner.get_loop())
+        else:
+            runner.close()
+
+
+def _abandon(loop: asyncio.AbstractEventLoop) -> None:
+    for atask in asyncio.all_tasks(loop):
+        coro = atask.get_coro()
+        try:
+            if coro is not None and hasattr(coro, "close"):
+                coro.close()
+        except RuntimeError as exc:  # a coroutine that awaits in its cleanup
+            log.warning("abandoned task %r did not close cleanly: %s", atask.get_name(), exc)
+        atask._log_destroy_pending = False  # type: ignore[attr-defined]
+    loop.close()
+
+
+class RunTimeout(TimeoutError):
+    """A run exceeded its ``timeout``. ``stuck`` lists the tasks that were still alive
+    after ``cleanup_timeout`` more seconds (empty when the cleanup finished in time)."""
+
+    def __init__(self, timeout: float, cleanup_timeout: float | None, root: Task) -> None:
+        self.timeout = timeout
+        self.stuck: list[Task] = [t for t in root._subtree() if t.alive]
+        if self.stuck:
+            names = ", ".join("/".join(t.path) for t in self.stuck[:10])
+            msg = (
+                f"the run exceeded its timeout of {timeout:g} s and its cleanup did not end "
+                f"within {cleanup_timeout:g} s more; still alive: {names}"
+            )
+        else:
+            msg = f"the run exceeded its timeout of {timeout:g} s; it was evaporated"
+        super().__init__(msg)
+
+
+def _check_timeouts(timeout: float | None, cleanup_timeout: float) -> None:
+    if timeout is not None and not (timeout >= 0 and timeout != float("inf")):
+        raise ValueError(f"timeout must be a finite number of seconds >= 0, got {timeout!r}")
+    if not (cleanup_timeout >= 0 and cleanup_timeout != float("inf")):
+        raise ValueError(
+            f"cleanup_timeout must be a finite number of seconds >= 0, got {cleanup_timeout!r}"
+        )
+
+
+async def _wait_dead_until(task: Task, deadline: float) -> bool:
+    """Wait until ``task`` is dead or the loop clock reaches ``deadline``; whether it died."""
+    loop = asyncio.get_running_loop()
+    while task.alive:
+        if loop.time() >= deadline:
+            return False
+        fut = task._add_waiter()
+        timer = loop.call_at(deadline, _wake, fut)
+        try:
+            await fut
+        finally:
+            timer.cancel()
+            task._drop_waiter(fut)
+    return True
+
+
+def _wake(fut: asyncio.Future[None]) -> None:
+    if not fut.done():
+        fut.set_result(None)
+
+
+def _running_loop() -> asyncio.AbstractEventLoop | None:
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        return None
+
+
+def _close(fn: Any) -> None:
+    if inspect.iscoroutine(fn):
+        fn.close()
+
+
+def _require_asyncio(what: str, fn: Any) -> None:
+    """Raise a clear error when awaited outside asyncio (trio, via anyio or not)."""
+    if _running_loop() is not None:
+        return
+    _close(fn)
+    library = "unknown"
+    try:
+        import sniffio
+
+        library = sniffio.current_async_library()
+    except Exception:  # sniffio missing or no async library detected
+        pass
+    raise RuntimeError(
+        f"{what} runs on asyncio only, but it was awaited without a running asyncio event "
+        f"loop (async library: {library}). cpl tasks are asyncio tasks: under anyio use "
+        "anyio.run(main, backend='asyncio'); the trio backend (and trio-asyncio) is not "
+        "supported"
+    )

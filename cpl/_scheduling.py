@@ -17,13 +17,14 @@ everywhere:
 from __future__ import annotations
 
 import asyncio
+import sys
 from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ._task import Task
 
-__all__ = ["CURRENT_TASK", "block_until"]
+__all__ = ["CURRENT_TASK", "DeferredCancellation", "block_until"]
 
 #: The cpl task whose code is running (``None`` outside any cpl task). asyncio copies the
 #: context into each new asyncio task; each cpl task sets it at its start.
@@ -75,3 +76,66 @@ async def block_until(fut: asyncio.Future[Any], deadline: float | None = None) -
     if deadline is not None and loop.time() >= deadline:
         return False
     return True
+
+
+class DeferredCancellation:
+    """Holds back the cancellation that arrives while cleanup waits, so that cleanup is
+    never cut short; :meth:`close` re-raises it once the wait is over.
+
+    Used by every wait that must finish (a task waiting for its children to die, a form
+    waiting for its evaporated branches, ``cpl.shielded``)::
+
+        deferred = DeferredCancellation()
+        try:
+            while not done():
+                try:
+                    await fut
+                except asyncio.CancelledError as exc:
+                    deferred.defer(exc)
+        finally:
+            deferred.close()          # re-raises the first deferred cancellation
+
+    anyio re-delivers a cancel scope's cancellation on every loop iteration while the task
+    stays inside the cancelled scope (asyncio's own ``timeout`` cancels once). Catching and
+    waiting again would spin the CPU and, on a clock that advances only when the loop is
+    idle (``MockClock``), never let time move. So once a first cancellation is deferred,
+    the rest of the wait runs inside a *shielded* anyio cancel scope, which takes the task
+    out of the cancelled scope until :meth:`close`; then anyio resumes delivering and the
+    deferred cancellation propagates to the scope that asked for it. anyio is only touched
+    when it is already imported (no scope can exist otherwise).
+    """
+
+    __slots__ = ("_shield", "pending")
+
+    def __init__(self) -> None:
+        # Invariant: pending is the first cancellation caught, or None; _shield is set only
+        # while pending is set and anyio was imported, and is exited by close().
+        self.pending: BaseException | None = None
+        self._shield: Any = None
+
+    def defer(self, exc: BaseException) -> None:
+        """Record ``exc`` (only the first one counts) and shield the rest of the wait."""
+        if self.pending is not None:
+            return
+        self.pending = exc
+        anyio = sys.modules.get("anyio")
+        if anyio is not None:
+            scope = anyio.CancelScope(shield=True)
+            scope.__enter__()
+            self._shield = scope
+
+    def release(self) -> BaseException | None:
+        """Leave the shield and return the deferred cancellation (``None`` if none came).
+        Call it in the same task that deferred, once the wait is over."""
+        scope, self._shield = self._shield, None
+        if scope is not None:
+            scope.__exit__(None, None, None)
+        pending, self.pending = self.pending, None
+        return pending
+
+    def close(self) -> None:
+        """:meth:`release`, then re-raise the deferred cancellation, if any. Call it in a
+        ``finally`` block of the same task that deferred."""
+        pending = self.release()
+        if pending is not None:
+            raise pending

@@ -20,7 +20,15 @@ Design notes, and where we differ from CRAM:
   structured concurrency on asyncio makes the inner-first order the natural one.
 - Evaporation is asyncio cancellation. Waiting for the children to die during teardown
   survives further cancellations (it keeps waiting and re-raises afterwards), so cleanup
-  cannot be cut short by a second evaporation.
+  cannot be cut short by a second evaporation. While it waits, an anyio cancel scope's
+  repeated cancellations are held off by a shielded anyio scope, so the wait sleeps
+  instead of spinning (:class:`~cpl._scheduling.DeferredCancellation`).
+- A task whose body has ended is tearing down: evaporating it then is a no-op and it ends
+  with its body's outcome once its children are dead.
+- Evaporation is a *native* asyncio cancellation, like ``Task.cancel`` or
+  ``asyncio.timeout``: it goes through ``anyio.CancelScope(shield=True)`` and abandons an
+  ``anyio.to_thread.run_sync`` call (the thread runs on). Cleanup that must finish, or a
+  thread that must be waited for, goes in ``cpl.shielded(...)``.
 """
 
 from __future__ import annotations
@@ -28,11 +36,15 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ._failure_handling import signal_failure
 from ._failures import Evaporated
-from ._scheduling import CURRENT_TASK, block_until
+from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+
+if TYPE_CHECKING:
+    from ._fluents import Fluent
 
 __all__ = ["Task", "current_task", "spawn", "with_task"]
 
@@ -62,9 +74,11 @@ class Task:
         "_atask",
         "_aw",
         "_blocked_on",
+        "_body_done",
         "_children",
         "_constraints",
         "_entry",
+        "_inline_parent",
         "_name_counts",
         "_on_finish",
         "_resume",
@@ -107,6 +121,14 @@ class Task:
         self.kind: str = kind
         self._aw: Any = aw
         self._atask: asyncio.Task[None] | None = None
+        # Invariant: set while this task runs *inline*: its body runs in the asyncio task
+        # of the parent that joins it (see run_inline), and this is that parent. Such
+        # tasks share one asyncio task down a chain; a suspension at the innermost one's
+        # checkpoint is where the whole chain stops.
+        self._inline_parent: Task | None = None
+        # Invariant: False until the body has returned, failed or been evaporated; then the
+        # outcome is fixed and only the children's teardown remains (evaporate is a no-op).
+        self._body_done: bool = False
         # Invariant: _state moves only along LEGAL_TRANSITIONS (checked in _set_state).
         self._state: Status = _CREATED
         self._status_fluent: Any = None  # created on first access of .status
@@ -116,10 +138,18 @@ class Task:
         self._waiters: list[asyncio.Future[None]] | None = None  # woken on every change
         self._on_finish: Callable[[Task], None] | None = None  # a form's supervisor
         self._constraints: list[Task] | None = None  # partial order: start after these die
+        # Invariant: True from suspend() until the task is SUSPENDED or wake_up() withdraws
+        # the request; block_until suspends the task at its next checkpoint while set.
         self._suspend_requested: bool = False
+        # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
         self._resume: asyncio.Future[None] | None = None
+        # Invariant: the future the task awaits in block_until (its one checkpoint), else
+        # None. A suspend request resolves it early (a spurious wake-up the caller re-checks).
         self._blocked_on: asyncio.Future[Any] | None = None
         self._suspension_handlers: list[Callable[[], Any]] | None = None
+        # Invariant: the form nodes (par, pursue, ...) whose code runs in this task right
+        # now, innermost last; they follow this task into and out of SUSPENDED because
+        # they have no asyncio task of their own. Pushed and popped by the form.
         self._active_forms: list[Task] | None = None
         self.result: Any = None
         self.failure: BaseException | None = None
@@ -130,6 +160,9 @@ class Task:
         self.annotations: dict[str, Any] | None = annotations
         self.waiting_on: str | None = None
         self.parent: Task | None = None
+        # Invariant: the Run (root and instruments) this task belongs to, the same object
+        # for the whole tree: set on the root by top_level, inherited on adoption. None for
+        # a task not (yet) in a run: it then reports to no instrument.
         self._run: Any = None
         if _register:
             owner = parent if parent is not None else CURRENT_TASK.get()
@@ -201,9 +234,9 @@ class Task:
         return self._state
 
     @property
-    def status(self) -> Any:
+    def status(self) -> Fluent[Status]:
         """The status as a :class:`~cpl.Fluent` (created on first access)."""
-        fl = self._status_fluent
+        fl: Fluent[Status] | None = self._status_fluent
         if fl is None:
             from ._fluents import Fluent
 
@@ -263,6 +296,34 @@ class Task:
             self.annotations = {}
         self.annotations[key] = value
 
+    # ------------------------------------------------------------------- form nodes
+    # A form node (kind par, pursue, ...) has no asyncio task of its own: the form's code,
+    # running in the owner's task, drives its status through these three methods.
+    def _begin_form(self) -> None:
+        self.start_time = asyncio.get_running_loop().time()
+        self._set_state(_RUNNING)
+
+    def _end_form(self, outcome: Status, value: Any, failure: BaseException | None) -> None:
+        self.end_time = asyncio.get_running_loop().time()
+        if outcome is _SUCCEEDED:
+            self.result = value
+        else:
+            self.failure = failure
+        if self._state is _SUSPENDED and outcome is _SUCCEEDED:
+            self._set_state(_RUNNING)
+        self._set_state(outcome)
+
+    def _push_form(self, node: Task) -> None:
+        """``node``, a form running in this task's code, is active (suspension follows it)."""
+        if self._active_forms is None:
+            self._active_forms = [node]
+        else:
+            self._active_forms.append(node)
+
+    def _pop_form(self, node: Task) -> None:
+        if self._active_forms is not None:
+            self._active_forms.remove(node)
+
     # ----------------------------------------------------------------------- starting
     def start(self) -> Task:
         """Start a CREATED task (a no-op if it already started). Returns the task."""
@@ -319,6 +380,11 @@ class Task:
                 # not ours to swallow. The task fails with it; joiners re-raise it.
                 outcome = _FAILED
                 self.failure = exc
+        except GeneratorExit:
+            # The coroutine is being closed without running (an abandoned loop is torn
+            # down): no cleanup can await any more; just let it close.
+            self._close_aw()
+            raise
         except (KeyboardInterrupt, SystemExit) as exc:
             outcome = _FAILED
             self.failure = exc
@@ -330,11 +396,113 @@ class Task:
             self._close_aw()
         if outcome is not _SUCCEEDED:
             self.result = None
+        # The body has ended: from here on the outcome is decided and evaporate() is a
+        # no-op (there is nothing left to stop but the children, which teardown stops).
+        self._body_done = True
         if self._children:
-            await self._teardown_children()
+            try:
+                await self._teardown_children()
+            except asyncio.CancelledError as exc:
+                # Our asyncio task was cancelled from outside cpl while the children died
+                # (wait_dead waited through it): finish first, then let it propagate.
+                if reraise is None:
+                    reraise = exc
         self._finish(outcome)
         if reraise is not None:
             raise reraise
+
+    async def _run_inline(self) -> Any:
+        """Run this CREATED task's body in the calling asyncio task and join it: its value,
+        its failure re-raised, or ``None`` if it was evaporated (what ``join`` gives).
+
+        This is the fast path of ``with_task``, plan calls and awaited tags: the parent
+        only waits for the child, so the child needs no asyncio task of its own (CRAM's
+        ``with-task`` makes a thread). The task tree, statuses, instruments, evaporation,
+        suspension and teardown are the same as for a task on its own asyncio task:
+
+        - evaporating the child cancels the shared asyncio task; the child's handler below
+          takes back its own cancellation (``uncancel``) and the parent goes on, unless a
+          cancellation of the parent (or of the whole asyncio task) is pending too, which
+          then propagates after the child has become EVAPORATED;
+        - evaporating the parent arrives in the child's code first: the child's ``finally``
+          blocks and its children's teardown run before the parent's, as with a joined task.
+        """
+        parent = CURRENT_TASK.get()
+        host = asyncio.current_task()
+        assert host is not None and parent is not None
+        self._atask = host
+        self._inline_parent = parent
+        token = CURRENT_TASK.set(self)
+        self.start_time = asyncio.get_running_loop().time()
+        self._set_state(_RUNNING)
+        outcome = _SUCCEEDED
+        reraise: BaseException | None = None
+        try:
+            if self._suspend_requested:
+                await self._suspend_here()
+            aw = self._aw
+            self._aw = None
+            if not inspect.isawaitable(aw):
+                aw = aw()
+                if not inspect.isawaitable(aw):
+                    raise TypeError(
+                        f"task {self.name!r}: the callable returned {type(aw).__name__}, "
+                        "not an awaitable; pass an async function"
+                    )
+            self.result = await aw
+        except asyncio.CancelledError as exc:
+            if self.evaporation is not None:
+                outcome = _EVAPORATED
+                host.uncancel()  # our own evaporation's cancel request, consumed here
+                if host.cancelling():
+                    reraise = exc  # the parent (or the asyncio task) was cancelled too
+            elif host.cancelling():
+                # The shared asyncio task was cancelled for an ancestor (or from outside):
+                # this task dies with it.
+                self.evaporation = Evaporated("its parent was evaporated", parent.path)
+                outcome = _EVAPORATED
+                reraise = exc
+            else:
+                outcome = _FAILED  # a foreign CancelledError: not ours to swallow
+                self.failure = exc
+        except GeneratorExit:
+            self._close_aw()
+            raise
+        except (KeyboardInterrupt, SystemExit) as exc:
+            outcome = _FAILED
+            self.failure = exc
+            reraise = exc
+        except BaseException as exc:
+            outcome = _FAILED
+            self.failure = exc
+        finally:
+            self._close_aw()
+        if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
+            host.uncancel()  # the body swallowed its evaporation: take back our request
+        if outcome is not _SUCCEEDED:
+            self.result = None
+        self._body_done = True
+        if self._children:
+            try:
+                await self._teardown_children()
+            except asyncio.CancelledError as exc:
+                if reraise is None:
+                    reraise = exc
+        CURRENT_TASK.reset(token)
+        self._inline_parent = None
+        self._finish(outcome)
+        if reraise is not None:
+            raise reraise
+        if parent._state is _SUSPENDED:
+            # The parent was suspended while this child ran in its place: its code must
+            # not go on before it is woken.
+            await parent._wait_resumed()
+        if outcome is _FAILED:
+            failure = self.failure
+            assert failure is not None
+            signal_failure(failure)
+            raise failure
+        return self.result
 
     def _close_aw(self) -> None:
         aw = self._aw
@@ -397,6 +565,7 @@ class Task:
                 me.waiting_on = None
         if self._state is _FAILED:
             assert self.failure is not None
+            signal_failure(self.failure)  # the failure enters the joining task here
             raise self.failure
         return self.result
 
@@ -405,8 +574,13 @@ class Task:
         """Ask the task to end (CRAM's evaporate). Synchronous: it returns at once; join to
         wait for the end. A dead task, or a second request, is a no-op. The task's
         ``finally`` blocks run; its children are evaporated and waited for. ``by`` names who
-        asked (default: the path of the calling task)."""
-        if self._state in _DEAD or self.evaporation is not None:
+        asked (default: the path of the calling task).
+
+        A task whose body has already ended and that is waiting for its children's cleanup
+        is dying anyway: evaporating it then is a no-op, and it ends with its body's
+        outcome once its children are dead (as CRAM, whose teardown, once begun, runs to
+        the end)."""
+        if self._state in _DEAD or self.evaporation is not None or self._body_done:
             return
         if by is None:
             caller = CURRENT_TASK.get()
@@ -490,6 +664,18 @@ class Task:
         for form in self._active_forms or ():
             if form._state is _RUNNING:
                 form._set_state(_SUSPENDED)
+        # Inline ancestors whose code waits for this one in the same asyncio task reach no
+        # checkpoint of their own: a pending request suspends them here, with this task.
+        node = self._inline_parent
+        while node is not None:
+            if node._suspend_requested and node._state is _RUNNING:
+                node._suspend_requested = False
+                node._resume = asyncio.get_running_loop().create_future()
+                node._set_state(_SUSPENDED)
+                for form in node._active_forms or ():
+                    if form._state is _RUNNING:
+                        form._set_state(_SUSPENDED)
+            node = node._inline_parent
         previous, self.waiting_on = self.waiting_on, "suspended"
         try:
             await resume
@@ -504,6 +690,37 @@ class Task:
         for form in self._active_forms or ():
             if form._state is _SUSPENDED:
                 form._set_state(_RUNNING)
+        node = self._inline_parent
+        while node is not None:  # ancestors woken meanwhile run again with this task
+            if node._state is _SUSPENDED and node._resume is not None and node._resume.done():
+                node._resume = None
+                node._resume_state()
+            node = node._inline_parent
+
+    def _resume_state(self) -> None:
+        self._set_state(_RUNNING)
+        for form in self._active_forms or ():
+            if form._state is _SUSPENDED:
+                form._set_state(_RUNNING)
+
+    async def _wait_resumed(self) -> None:
+        """Wait, in this (inline-suspended) task's code, until it is woken; then RUNNING.
+        Evaporation while waiting raises :class:`Evaporated`."""
+        resume = self._resume
+        if resume is None:
+            resume = self._resume = asyncio.get_running_loop().create_future()
+        previous, self.waiting_on = self.waiting_on, "suspended"
+        try:
+            await resume
+        except asyncio.CancelledError:
+            if self.evaporation is not None:
+                raise self.evaporation from None
+            raise
+        finally:
+            self._resume = None
+            self.waiting_on = previous
+        if self._state is _SUSPENDED:
+            self._resume_state()
 
     def __repr__(self) -> str:
         return f"<cpl.Task {'/'.join(self.path)} {self._state.name}>"
@@ -514,19 +731,21 @@ _FORM_KINDS = frozenset({"par", "pursue", "try-all", "par-loop", "partial-order"
 
 async def wait_dead(tasks: list[Task]) -> None:
     """Wait until every task in ``tasks`` is dead, surviving cancellation: a cancellation
-    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short)."""
-    pending: BaseException | None = None
-    for t in tasks:
-        while t._state not in _DEAD:
-            fut = t._add_waiter()
-            try:
-                await fut
-            except asyncio.CancelledError as exc:
-                pending = pending or exc
-            finally:
-                t._drop_waiter(fut)
-    if pending is not None:
-        raise pending
+    that arrives meanwhile is re-raised once all are dead (cleanup is never cut short; see
+    :class:`DeferredCancellation` for anyio's repeated cancellations)."""
+    deferred = DeferredCancellation()
+    try:
+        for t in tasks:
+            while t._state not in _DEAD:
+                fut = t._add_waiter()
+                try:
+                    await fut
+                except asyncio.CancelledError as exc:
+                    deferred.defer(exc)
+                finally:
+                    t._drop_waiter(fut)
+    finally:
+        deferred.close()
 
 
 def current_task() -> Task | None:
@@ -573,10 +792,22 @@ async def with_task(
     child is evaporated and waited for before the evaporation propagates.
     """
     parent = _require_task("cpl.with_task")
-    child = Task(
-        aw, name, kind=kind, arguments=arguments, annotations=annotations, parent=parent
-    ).start()
-    return await join_owned(child)
+    child = Task(aw, name, kind=kind, arguments=arguments, annotations=annotations, parent=parent)
+    return await run_joined(child)
+
+
+async def run_joined(child: Task) -> Any:
+    """Start a fresh CREATED ``child`` and join it, running it inline in the caller's
+    asyncio task when it can (see :meth:`Task._run_inline`), on its own asyncio task
+    otherwise (a child with ordering constraints)."""
+    if child._constraints or child._atask is not None or child._state is not _CREATED:
+        child.start()
+        return await join_owned(child)
+    if child.evaporation is not None:  # evaporated before it started: it never runs
+        child._close_aw()
+        child._finish(_EVAPORATED)
+        return None
+    return await child._run_inline()
 
 
 async def join_owned(child: Task) -> Any:

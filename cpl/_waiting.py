@@ -6,7 +6,7 @@ import asyncio
 from collections.abc import Awaitable
 from typing import TypeVar
 
-from ._scheduling import CURRENT_TASK, block_until
+from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 
 __all__ = ["shielded", "sleep"]
 
@@ -60,22 +60,25 @@ async def shielded(aw: Awaitable[T], timeout: float | None = None) -> T:
     loop = asyncio.get_running_loop()
     inner: asyncio.Future[T] = asyncio.ensure_future(aw)
     deadline = None if timeout is None else loop.time() + timeout
-    pending: BaseException | None = None
+    deferred = DeferredCancellation()
     timed_out = False
-    while not inner.done():
-        remaining = None if deadline is None else deadline - loop.time()
-        if remaining is not None and remaining <= 0:
-            timed_out = True
-            inner.cancel("shielded cleanup timed out")
+    try:
+        while not inner.done():
+            remaining = None if deadline is None else deadline - loop.time()
+            if remaining is not None and remaining <= 0:
+                timed_out = True
+                inner.cancel("shielded cleanup timed out")
+                try:
+                    await asyncio.wait([inner])
+                except asyncio.CancelledError as exc:
+                    deferred.defer(exc)
+                break
             try:
-                await asyncio.wait([inner])
+                await asyncio.wait([inner], timeout=remaining)
             except asyncio.CancelledError as exc:
-                pending = pending or exc
-            break
-        try:
-            await asyncio.wait([inner], timeout=remaining)
-        except asyncio.CancelledError as exc:
-            pending = pending or exc
+                deferred.defer(exc)
+    finally:
+        pending = deferred.release()
     if pending is not None:
         task = CURRENT_TASK.get()
         if task is not None and task.evaporation is not None:

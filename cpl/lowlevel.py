@@ -9,27 +9,20 @@ debugger to see where a hanging plan is stuck.
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Sequence
-from typing import IO, Any
+from collections.abc import Sequence
+from typing import IO
 
+from ._runtime import current_roots
 from ._tree import TaskLike, snapshot
 from .display import render_text
 
-__all__ = ["dump_task_tree"]
+__all__ = ["dump_task_tree", "render_roots"]
 
 _DUMP_WIDTH = 120
 
 
 def _current_roots() -> Sequence[TaskLike]:
-    try:
-        from . import _runtime
-    except ImportError:
-        raise RuntimeError(
-            "dump_task_tree() cannot find the running top levels in this cpl version "
-            "(no cpl._runtime.current_roots); pass the task to dump"
-        ) from None
-    current_roots: Callable[[], Any] = _runtime.current_roots
-    return list(current_roots())
+    return current_roots()
 
 
 def dump_task_tree(task: TaskLike | None = None, file: IO[str] | None = None) -> str:
@@ -47,3 +40,15 @@ def dump_task_tree(task: TaskLike | None = None, file: IO[str] | None = None) ->
     out.write(text)
     out.flush()
     return text
+
+
+def render_roots(roots: Sequence[TaskLike]) -> str:
+    """The ASCII dump of the trees under ``roots`` (best effort: a tree changing in
+    another thread is rendered as far as it can be)."""
+    parts: list[str] = []
+    for root in roots:
+        try:
+            parts.append(render_text(snapshot(root), ascii=True, width=_DUMP_WIDTH))
+        except Exception as exc:  # the tree changed under us: say so, keep the rest
+            parts.append(f"(could not render {root!r}: {exc!r})\n")
+    return "".join(parts) or "(no tree)\n"

@@ -7,6 +7,7 @@ Everything public is importable from here; the modules behind it are private exc
 """
 
 from . import _location, _motions, events
+from ._blocking import BlockingProcessModule, CancelRequest
 from ._designator import (
     ActionDesignator,
     Designator,
@@ -21,9 +22,6 @@ from ._designator import (
 from ._environment import (
     Environment,
     Imagination,
-    ProbeResult,
-    ProjectionWorld,
-    WorldModel,
     current_environment,
     environment,
     with_process_modules,
@@ -43,12 +41,22 @@ from ._rules import (
     static_rules,
 )
 from ._solutions import ActionGrounding, MotionCommand, ObjectData
+from ._world import (
+    AABB,
+    ProbeResult,
+    ProjectionWorld,
+    SceneSetup,
+    WorldModel,
+    WorldProbes,
+    WorldQueries,
+)
 from .events import emit, subscribe
 from .failures import *  # noqa: F403
 from .failures import __all__ as _failure_names
 from .retry import (
     ListCursor,
     SolutionCursor,
+    retry_scope,
     retry_with_designator_solutions,
     retry_with_list_solutions,
 )
@@ -57,6 +65,9 @@ builtin_rules.freeze()
 del _location, _motions
 
 __all__ = [
+    "AABB",
+    "BlockingProcessModule",
+    "CancelRequest",
     "ActionDesignator",
     "ActionGrounding",
     "Designator",
@@ -77,7 +88,10 @@ __all__ = [
     "Imagination",
     "ProbeResult",
     "ProjectionWorld",
+    "SceneSetup",
     "WorldModel",
+    "WorldProbes",
+    "WorldQueries",
     "a",
     "action_of",
     "an",
@@ -96,6 +110,7 @@ __all__ = [
     "register_location_generator",
     "register_location_validator",
     "register_rule",
+    "retry_scope",
     "retry_with_designator_solutions",
     "retry_with_list_solutions",
     "rule",

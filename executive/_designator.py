@@ -30,7 +30,9 @@ from __future__ import annotations
 import contextvars
 import math
 from collections.abc import Iterator, Mapping
-from typing import TYPE_CHECKING, Any, ClassVar, Final
+from typing import TYPE_CHECKING, Any, ClassVar, Final, Self, cast
+
+from cpl import LazyList
 
 from ._environment import Environment, current_environment
 from ._pose import Pose, Transform
@@ -132,16 +134,6 @@ class _SolutionStream:
                 return
             yield value
             i += 1
-
-
-def lazy_list_class() -> Any:
-    """``cpl.LazyList`` (read from ``cpl._lazy`` until ``cpl`` exports it)."""
-    import cpl
-
-    lazy = getattr(cpl, "LazyList", None)
-    if lazy is None:
-        from cpl._lazy import LazyList as lazy
-    return lazy
 
 
 # ---------------------------------------------------------------------------- validation
@@ -275,7 +267,7 @@ class Designator:
         """The distinct keys, in first-appearance order."""
         return tuple(dict.fromkeys(k for k, _ in self._props))
 
-    def copy(self, *pairs: Pair, **changes: Any) -> Designator:
+    def copy(self, *pairs: Pair, **changes: Any) -> Self:
         """A new, unresolved, unchained designator of the same kind. Keyword ``changes``
         replace every value of their key (at the key's first position; new keys go last;
         ``None`` removes the key); positional ``pairs`` are appended (repeats)."""
@@ -351,11 +343,11 @@ class Designator:
         """True once this designator has been referenced."""
         return self._has_data
 
-    def solutions(self) -> Any:
+    def solutions(self) -> LazyList[Any]:
         """All solutions from this designator's own on, as a memoised ``cpl.LazyList``
         (shared with the chain: forcing it does not re-run the rules)."""
         stream = self._ensure_stream()
-        return lazy_list_class()(stream.iter_from(self._index))
+        return LazyList(stream.iter_from(self._index))
 
     def next_solution(self) -> Designator | None:
         """A new designator, equated to this one, whose solution is the next element of the
@@ -378,19 +370,20 @@ class Designator:
         return new
 
     # -- chain ------------------------------------------------------------------------
-    def current(self) -> Designator:
-        """The newest designator of this chain (CRAM's ``current-desig``)."""
-        d = self
+    def current(self) -> Self:
+        """The newest designator of this chain (CRAM's ``current-desig``; a chain holds
+        one kind of designator, see :func:`equate`)."""
+        d: Designator = self
         while d._successor is not None:
             d = d._successor
-        return d
+        return cast(Self, d)
 
-    def first(self) -> Designator:
+    def first(self) -> Self:
         """The oldest designator of this chain (CRAM's ``first-desig``)."""
-        d = self
+        d: Designator = self
         while d._parent is not None:
             d = d._parent
-        return d
+        return cast(Self, d)
 
     def newest_effective(self) -> Designator | None:
         """The newest member of the chain that has been referenced, or ``None``."""

@@ -14,14 +14,13 @@ knows the static rules and nothing else.
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Callable, Iterable, Sequence
+from collections.abc import AsyncIterator, Callable, Iterable
 from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
-from ._pose import Pose
 from ._rules import RuleSet, static_rules
+from ._world import ProjectionWorld
 from .failures import NoWorldModel
 
 if TYPE_CHECKING:
@@ -30,96 +29,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Environment",
-    "WorldModel",
+    "Imagination",
     "current_environment",
     "environment",
     "with_process_modules",
 ]
 
 E = TypeVar("E", bound="Event")
-
-
-@runtime_checkable
-class WorldModel(Protocol):
-    """What plans and rules may ask of the world (the belief state; projection implements it
-    with PyBullet, :class:`executive.testing.InMemoryWorld` in memory).
-
-    Methods raise :class:`executive.PerceptionObjectNotInWorld` for unknown objects.
-    """
-
-    def object_pose(self, name: str, frame: str = "map") -> Pose:
-        """The current pose of the named object in ``frame``."""
-        ...
-
-    def robot_pose(self) -> Pose:
-        """The robot base's pose in ``map``."""
-        ...
-
-    def handle_event(self, event: Event) -> None:
-        """Update the belief state for an event (attach, detach, container opened...)."""
-        ...
-
-
-@dataclass(frozen=True)
-class ProbeResult:
-    """The outcome of a projection probe: ``ok``, or why not (``failure`` is the typed
-    failure the real motion would raise, e.g. ``ManipulationPoseUnreachable``), and at which
-    waypoint (``index``)."""
-
-    ok: bool
-    failure: BaseException | None = None
-    index: int | None = None
-
-
-@runtime_checkable
-class ProjectionWorld(WorldModel, Protocol):
-    """A world model that can *imagine*: the probes behind CRAM's projection checks
-    (``check-navigating-collisions``, ``check-picking-up-collisions``,
-    ``check-placing-collisions``, ``check-placing-pose-stability``,
-    ``check-environment-manipulation-collisions``).
-
-    Every probe leaves the world exactly as it found it. Plans iterate designator
-    solutions around these probes (in :mod:`plans`); projection implements them with
-    PyBullet. Poses may be given in ``map`` or ``base_footprint``.
-    """
-
-    def object_type(self, name: str) -> str:
-        """The type of a known object (``PerceptionObjectNotInWorld`` otherwise)."""
-        ...
-
-    def object_in_hand(self, arm: str) -> str | None:
-        """The name of the object attached to ``arm``'s gripper, if any."""
-        ...
-
-    def link_pose(self, link: str, frame: str = "map") -> Pose:
-        """The pose of a robot or environment link (``LookupError`` for unknown links)."""
-        ...
-
-    def probe_base_pose(self, pose: Pose) -> ProbeResult:
-        """Would the robot (with what it holds) stand collision-free at ``pose``?"""
-        ...
-
-    def probe_arm_trajectory(
-        self,
-        arm: str,
-        waypoints: Sequence[Pose],
-        *,
-        robot_pose: Pose | None = None,
-        gripper_opening: float | None = None,
-        allowed_contacts: Sequence[str] = (),
-        check_collisions: Sequence[bool] | bool = True,
-    ) -> ProbeResult:
-        """Move ``arm``'s tool frame through ``waypoints`` (IK with torso resampling) from
-        ``robot_pose`` (default: where the robot is). A waypoint fails if IK does not reach
-        it, or, where ``check_collisions`` is true for it, if the robot then touches
-        anything but its attached objects and the ``allowed_contacts`` (object or link
-        names)."""
-        ...
-
-    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
-        """Would an object of ``object_type`` released at ``pose`` stay put (moved less than
-        0.2 m after ~600 simulated steps)?"""
-        ...
 
 
 class Imagination(Protocol):
@@ -178,7 +94,7 @@ class Environment:
         name: str = "environment",
         *,
         process_modules: Iterable[ProcessModule] = (),
-        world: WorldModel | None = None,
+        world: ProjectionWorld | None = None,
         rules: RuleSet | None = None,
         projecting: bool = False,
         imagination: Imagination | None = None,
@@ -200,7 +116,7 @@ class Environment:
 
     # -- world ------------------------------------------------------------------------
     @property
-    def world(self) -> WorldModel:
+    def world(self) -> ProjectionWorld:
         """The world model; raises :class:`executive.NoWorldModel` when there is none."""
         if self._world is None:
             raise NoWorldModel(
@@ -219,7 +135,7 @@ class Environment:
         name: str | None = None,
         *,
         process_modules: Iterable[ProcessModule] = (),
-        world: WorldModel | None = None,
+        world: ProjectionWorld | None = None,
         rules: RuleSet | None = None,
     ) -> Environment:
         """A child environment: this one's modules followed by ``process_modules``; the same
@@ -358,7 +274,7 @@ async def environment(
     *,
     name: str = "environment",
     process_modules: Iterable[ProcessModule] = (),
-    world: WorldModel | None = None,
+    world: ProjectionWorld | None = None,
     rules: RuleSet | None = None,
     projecting: bool = False,
     imagination: Imagination | None = None,

@@ -10,6 +10,10 @@ Subclasses implement :meth:`ProcessModule.accepts` and :meth:`ProcessModule.exec
 - **Status.** ``status`` is a :class:`cpl.Fluent` of :class:`PMStatus`: ``OFFLINE`` outside
   any block that activates the module, ``IDLE`` when waiting for goals, ``RUNNING`` while a
   goal executes, ``FAILED`` after the last goal failed (until the next one starts).
+- **Blocking work.** A module whose driver blocks derives from
+  :class:`executive.BlockingProcessModule` (``blocking = True``): its synchronous
+  ``execute_blocking`` runs in a worker thread, and evaporation first asks the driver to
+  stop (a :class:`executive.CancelRequest`) and waits for it, then calls ``on_cancel``.
 - **Cancellation.** Evaporating a goal's task while ``execute`` runs calls
   ``on_cancel(motion)`` once, shielded from further evaporation and limited to
   ``cancel_timeout`` seconds (a failure or time-out of the hook is logged, never raised),
@@ -75,8 +79,13 @@ class ProcessModule(abc.ABC):
 
     #: Motion types this module accepts (used by the default :meth:`accepts`).
     motion_types: ClassVar[frozenset[str]] = frozenset()
-    #: Seconds ``on_cancel`` may take before it is abandoned.
+    #: Seconds ``on_cancel`` may take before it is abandoned (for a blocking module, also
+    #: how long an evaporated driver call may take to return).
     cancel_timeout: float = 2.0
+    #: Whether this module's work blocks (a synchronous driver call). Blocking modules
+    #: derive from :class:`executive.BlockingProcessModule`, which runs the work in a worker
+    #: thread so that the loop stays responsive (``executive._blocking``).
+    blocking: ClassVar[bool] = False
 
     def __init__(self, name: str | None = None) -> None:
         if name is not None and (not isinstance(name, str) or not name):

@@ -28,7 +28,8 @@ hot path is one dict lookup and one tuple comparison.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Final, TypeVar
 
@@ -207,6 +208,23 @@ class RuleSet:
     @property
     def frozen(self) -> bool:
         return self._frozen
+
+    @contextmanager
+    def restoring(self) -> Iterator[RuleSet]:
+        """Undo, on leaving the block, every registration made on this set inside it (a
+        test that registers on :data:`static_rules` leaves it as it found it)."""
+        saved = (
+            {key: list(rules) for key, rules in self._rules.items()},
+            set(self._replaced),
+            list(self._generators),
+            list(self._validators),
+            self._frozen,
+        )
+        try:
+            yield self
+        finally:
+            self._rules, self._replaced, self._generators, self._validators, self._frozen = saved
+            self._version += 1  # a new stamp: lookups cached in the block are stale
 
     # -- lookup -----------------------------------------------------------------------------
     def _stamp(self) -> tuple[int, ...]:

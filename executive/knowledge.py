@@ -28,6 +28,7 @@ __all__ = [
     "ARMS",
     "ARM_CONFIGURATIONS",
     "ARM_JOINTS",
+    "ARM_PREFIX",
     "LIFT_OFFSET",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
@@ -42,6 +43,8 @@ __all__ = [
     "gripping_effort",
     "known_types",
     "object_knowledge",
+    "tool_frame",
+    "wrist_link",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -49,6 +52,27 @@ Mat3 = tuple[Vec3, Vec3, Vec3]
 
 #: Arms in CRAM's enumeration order (pick-up tries the right arm first).
 ARMS: tuple[str, ...] = ("right", "left")
+
+#: Link and joint name prefix of each arm (``l_shoulder_pan_joint``, ``r_gripper_tool_frame``).
+ARM_PREFIX: Mapping[str, str] = MappingProxyType({"left": "l", "right": "r"})
+
+
+def tool_frame(arm: str) -> str:
+    """The tool frame link of ``arm`` (``l_gripper_tool_frame``); unknown arm: LookupError."""
+    return f"{_prefix(arm)}_gripper_tool_frame"
+
+
+def wrist_link(arm: str) -> str:
+    """The link an object held by ``arm`` hangs from (``l_wrist_roll_link``)."""
+    return f"{_prefix(arm)}_wrist_roll_link"
+
+
+def _prefix(arm: str) -> str:
+    try:
+        return ARM_PREFIX[arm]
+    except (KeyError, TypeError):
+        raise LookupError(f"unknown arm {arm!r}; known arms: left, right") from None
+
 
 #: The 7 arm joints of one side, without the ``l_``/``r_`` prefix, root to tip.
 ARM_JOINTS: tuple[str, ...] = (

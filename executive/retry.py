@@ -21,6 +21,18 @@ otherwise log "No samples left". Then, if ``rethrow`` is given, raise it (an ins
 class instantiated without arguments), chained to the failure; otherwise return ``None``: the
 handler declines and the original failure propagates.
 
+:func:`retry_scope` is the one-line form of a whole scope (CRAM's
+``with-failure-handling`` clause around ``retry-with-loc-designator-solutions``): the
+failures, the cursor and the counter on the line above the body they guard::
+
+    @retry_scope(NavigationGoalInCollision, robot_loc, cpl.RetryCounter(10),
+                 rethrow=lambda f: ObjectUnfetchable(object=obj))
+    async def from_here():
+        await perform(an.action(type="navigating", location=robot_loc.current))
+        ...
+
+    await from_here()
+
 Python cannot rebind the caller's variable (CRAM's macros ``setf`` a place), so the solution in
 use lives in a small mutable holder: :class:`SolutionCursor` for designators,
 :class:`ListCursor` for lazy lists. Deliberate difference from CRAM: ``reset=`` really
@@ -30,20 +42,23 @@ variable, a bug noted in the reference).
 
 from __future__ import annotations
 
+import functools
+import inspect
 import logging
 import sys
-from collections.abc import Callable, Iterable
-from typing import Any, NoReturn
+from collections.abc import Awaitable, Callable, Iterable
+from typing import Any, NoReturn, TypeVar
 
 import cpl
 
-from ._designator import Designator, LocationDesignator, equate, lazy_list_class
+from ._designator import Designator, LocationDesignator, equate
 
 __all__ = [
     "DEFAULT_ANGLE_THRESHOLD",
     "DEFAULT_DISTANCE_THRESHOLD",
     "ListCursor",
     "SolutionCursor",
+    "retry_scope",
     "retry_with_designator_solutions",
     "retry_with_list_solutions",
 ]
@@ -113,8 +128,9 @@ class ListCursor:
     __slots__ = ("solutions",)
 
     def __init__(self, solutions: Iterable[Any]) -> None:
-        lazy = lazy_list_class()
-        self.solutions: Any = solutions if isinstance(solutions, lazy) else lazy(solutions)
+        self.solutions: cpl.LazyList[Any] = (
+            solutions if isinstance(solutions, cpl.LazyList) else cpl.LazyList(solutions)
+        )
 
     @property
     def current(self) -> Any:
@@ -223,3 +239,105 @@ def retry_with_list_solutions(
     if rethrow is not None:
         _raise(rethrow, failure)
     return None
+
+
+T = TypeVar("T")
+Rethrow = BaseException | type[BaseException] | Callable[[BaseException], BaseException]
+Body = Callable[[], Awaitable[T]]
+
+
+def retry_scope(
+    on: type[BaseException] | tuple[type[BaseException], ...],
+    cursor: SolutionCursor | ListCursor | None,
+    counter: Any,
+    *,
+    rethrow: Rethrow | None = None,
+    before_retry: Callable[[], Any] | None = None,
+    on_retry: Callable[[Any], Any] | None = None,
+    reset: Iterable[SolutionCursor] = (),
+    distance_threshold: float | None = None,
+    angle_threshold: float = DEFAULT_ANGLE_THRESHOLD,
+) -> Callable[[Body[T]], Body[T]]:
+    """A retry scope in one line: decorate a zero-argument async function (the scope's
+    body) so that awaiting it runs it under ``cpl.with_failure_handling`` with one clause:
+    on a failure of type ``on``,
+
+    - with a :class:`SolutionCursor`: :func:`retry_with_designator_solutions` (the
+      ``distance_threshold`` / ``angle_threshold`` of locations, ``reset`` cursors,
+      ``on_retry(new designator)``);
+    - with a :class:`ListCursor`: :func:`retry_with_list_solutions` (``on_retry(new
+      element)``);
+    - with ``cursor=None`` (a retry that changes no solution, CRAM's ``(when
+      (do-retry counter) (recover) (retry))``): while ``counter`` allows, run
+      ``before_retry()`` (sync or async: the recovery) and retry.
+
+    When the retries or the solutions run out, raise ``rethrow`` chained to the failure
+    (an exception instance or class, or a function of the failure returning one); without
+    it the failure propagates. ``counter`` is anything with ``do_retry()`` (a
+    :class:`cpl.RetryCounter`): create it where the scope is entered, as CRAM's
+    ``with-retry-counters`` does. Bad arguments raise ``TypeError`` at decoration time.
+    """
+    types = on if isinstance(on, tuple) else (on,)
+    if not types or not all(isinstance(t, type) and issubclass(t, Exception) for t in types):
+        raise TypeError(f"retry_scope(on=...) names failure classes, got {on!r}")
+    if cursor is not None and not isinstance(cursor, (SolutionCursor, ListCursor)):
+        raise TypeError(
+            f"retry_scope needs a SolutionCursor, a ListCursor or None as cursor, got {cursor!r}"
+        )
+    if not callable(getattr(counter, "do_retry", None)):
+        raise TypeError(f"retry_scope needs a retry counter (cpl.RetryCounter), got {counter!r}")
+    if cursor is not None and before_retry is not None:
+        raise TypeError("before_retry is for scopes without a cursor; use on_retry=")
+    if cursor is None and on_retry is not None:
+        raise TypeError("on_retry takes the next solution: it needs a cursor; use before_retry=")
+    if rethrow is not None and not (isinstance(rethrow, BaseException) or callable(rethrow)):
+        raise TypeError(f"rethrow must be an exception, a class or a function, got {rethrow!r}")
+
+    async def handler(failure: BaseException) -> None:
+        exc = _rethrown(rethrow, failure)
+        if isinstance(cursor, SolutionCursor):
+            retry_with_designator_solutions(
+                cursor,
+                counter,
+                reset=reset,
+                rethrow=exc,
+                distance_threshold=distance_threshold,
+                angle_threshold=angle_threshold,
+                on_retry=on_retry,
+                failure=failure,
+            )
+        elif isinstance(cursor, ListCursor):
+            retry_with_list_solutions(
+                cursor, counter, rethrow=exc, on_retry=on_retry, failure=failure
+            )
+        else:
+            if counter.do_retry():
+                if before_retry is not None:
+                    res = before_retry()
+                    if inspect.isawaitable(res):
+                        await res
+                cpl.retry()
+            if exc is not None:
+                _raise(exc, failure)
+
+    def decorate(body: Body[T]) -> Body[T]:
+        if not callable(body):
+            raise TypeError(f"retry_scope decorates an async function, got {body!r}")
+
+        @functools.wraps(body)
+        async def scope() -> T:
+            result: T = await cpl.with_failure_handling(body, [(types, handler)])
+            return result
+
+        return scope
+
+    return decorate
+
+
+def _rethrown(
+    rethrow: Rethrow | None, failure: BaseException
+) -> BaseException | type[BaseException] | None:
+    """``rethrow`` as :func:`_raise` takes it: a function of the failure is called now."""
+    if rethrow is None or isinstance(rethrow, (BaseException, type)):
+        return rethrow
+    return rethrow(failure)

@@ -19,9 +19,9 @@ from typing import Any
 import cpl
 
 from ._designator import Designator
-from ._environment import ProbeResult
 from ._pose import Pose, Transform
 from ._process_module import ProcessModule
+from ._world import AABB, ProbeResult
 from .events import (
     ContainerClosed,
     ContainerOpened,
@@ -69,6 +69,9 @@ class InMemoryWorld:
 
     Links: ``links`` maps link names to poses in ``map`` or ``base_footprint`` (a
     ``base_footprint`` link moves with the robot); :meth:`set_link_pose` changes one.
+    Extents: ``aabbs`` maps link or object names to ``(min, max)`` boxes in ``map``;
+    :meth:`link_aabb` / :meth:`object_aabb` raise ``LookupError`` for any other name (a
+    plan then falls back as it would for a world without that knowledge).
 
     Probes (every call is recorded in ``probe_calls[kind]``, kinds :data:`PROBES`): a probe
     fails when its 1-based call number is a key of ``fail_probe[kind]`` (the value: a failure
@@ -87,6 +90,7 @@ class InMemoryWorld:
         robot_pose: Pose | None = None,
         types: Mapping[str, str] | None = None,
         links: Mapping[str, Pose] | None = None,
+        aabbs: Mapping[str, AABB] | None = None,
         fail_probe: Mapping[str, Mapping[int, Any]] | None = None,
         blocked_poses: Collection[Pose] = (),
         unreachable_waypoints: Collection[Pose] = (),
@@ -101,6 +105,7 @@ class InMemoryWorld:
         self.perceived: list[Any] = []
         self.robot_state_changes = 0
         self.links: dict[str, Pose] = dict(links or {})
+        self.aabbs: dict[str, AABB] = dict(aabbs or {})
         self._held: dict[str, Transform] = {}
         unknown = set(fail_probe or {}) - set(PROBES)
         if unknown:
@@ -171,6 +176,10 @@ class InMemoryWorld:
         held = self.attached(arm)
         return held[0] if held else None
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """Unknown (None): an in-memory robot has no fingers. Tests replace it."""
+        return None
+
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         try:
             pose = self.links[link]
@@ -178,6 +187,18 @@ class InMemoryWorld:
             known = ", ".join(sorted(self.links)) or "none"
             raise LookupError(f"unknown link {link!r} (known: {known})") from None
         return self._express(pose, frame)
+
+    def link_aabb(self, link: str) -> AABB:
+        return self._aabb(link, "link")
+
+    def object_aabb(self, name: str) -> AABB:
+        return self._aabb(name, "object")
+
+    def _aabb(self, name: str, what: str) -> AABB:
+        try:
+            return self.aabbs[name]
+        except KeyError:
+            raise LookupError(f"no extent known for the {what} {name!r}") from None
 
     def set_link_pose(self, link: str, pose: Pose) -> None:
         """Move a link (objects attached to it follow)."""

@@ -21,6 +21,7 @@ from executive import (
     current_environment,
     perform,
 )
+from executive.knowledge import ARM_PREFIX, tool_frame, wrist_link
 
 __all__ = [
     "ARM_PREFIX",
@@ -33,10 +34,10 @@ __all__ = [
     "to_base",
     "tool_frame",
     "translating_designator_errors",
+    "translating_failures",
     "wrist_link",
 ]
 
-ARM_PREFIX = {"left": "l", "right": "r"}
 
 #: Where :class:`CountedRetries` report the retries they grant (by kind), if anyone asks:
 #: :func:`retry_ledger` binds a fresh counter for a block (the demo does, per object).
@@ -69,15 +70,6 @@ def retry_ledger() -> Iterator[Counter[str]]:
         _LEDGER.reset(token)
 
 
-def tool_frame(arm: str) -> str:
-    return f"{ARM_PREFIX[arm]}_gripper_tool_frame"
-
-
-def wrist_link(arm: str) -> str:
-    """CRAM's end-effector link (objects are attached to it)."""
-    return f"{ARM_PREFIX[arm]}_wrist_roll_link"
-
-
 async def perform_ignoring(
     designator: executive.Designator, failures: type[Exception] | tuple[type[Exception], ...]
 ) -> Any:
@@ -99,18 +91,28 @@ async def translating_designator_errors(
 ) -> Any:
     """Run ``body()``; a ``designator-error`` leaving it becomes ``into(error)`` (chained):
     CRAM's translation of designator errors at every plan boundary."""
+    return await translating_failures(DesignatorError, body, into)
+
+
+async def translating_failures(
+    failures: type[Exception] | tuple[type[Exception], ...],
+    body: Callable[[], Awaitable[Any]],
+    into: Callable[[BaseException], BaseException],
+) -> Any:
+    """Run ``body()``; a failure of type ``failures`` leaving it becomes ``into(failure)``
+    (chained)."""
 
     def translate(error: BaseException) -> None:
         raise into(error) from error
 
-    return await cpl.with_failure_handling(body, [(DesignatorError, translate)])
+    return await cpl.with_failure_handling(body, [(failures, translate)])
 
 
 def as_location(target: Any) -> LocationDesignator:
     """A location designator for a pose (``(pose P)``), or the newest member of a given
     location designator's chain."""
     if isinstance(target, LocationDesignator):
-        return target.current()  # type: ignore[return-value]
+        return target.current()
     if isinstance(target, Pose):
         return a.location(pose=target)
     raise DesignatorError(f"expected a location designator or a Pose, got {target!r}", target)

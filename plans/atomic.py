@@ -41,6 +41,7 @@ from executive import (
     GripperLowLevelFailure,
     ManipulationLowLevelFailure,
     NavigationLowLevelFailure,
+    ObjectData,
     ObjectDesignator,
     PerceptionLowLevelFailure,
     Pose,
@@ -158,20 +159,19 @@ def _looking(d: Designator) -> Iterator[Any]:
 
 # ---------------------------------------------------------------------------- detecting
 def _as_designator(wanted: ObjectDesignator, result: Any) -> ObjectDesignator:
-    """The perception result as an object designator (process modules may return a
-    designator, a list of them, or perceived-object data)."""
+    """The perception result as an object designator (process modules return a
+    designator, a list of them, or :class:`executive.ObjectData`)."""
     if isinstance(result, (list, tuple)) and result:
         result = result[0]
     if isinstance(result, ObjectDesignator):
         return result
-    pose = getattr(result, "pose", None)
-    if not isinstance(pose, Pose):
+    if not isinstance(result, ObjectData) or not isinstance(result.pose, Pose):
         raise DesignatorError(f"perception returned no pose for {wanted.short()}: {result!r}")
-    return wanted.copy(  # type: ignore[return-value]
-        name=getattr(result, "name", None) or wanted.get("name"),
-        type=getattr(result, "type", None) or wanted.type,
-        pose=getattr(result, "map_pose", pose),
-        transform=getattr(result, "transform", None),
+    return wanted.copy(
+        name=result.name or wanted.get("name"),
+        type=result.type or wanted.type,
+        pose=result.pose,
+        transform=result.transform,
     )
 
 
@@ -308,9 +308,8 @@ async def position_arms(left: tuple[float, ...] | None, right: tuple[float, ...]
 
 def _object_fell_out(failure: BaseException, arms: Sequence[str]) -> None:
     world = current_environment().world
-    in_hand = getattr(world, "object_in_hand", None)
     for arm in arms:
-        name = in_hand(arm) if in_hand is not None else None
+        name = world.object_in_hand(arm)
         if name is None:
             continue
         _log.warning("%s fell out of the %s gripper while moving the arm: %s", name, arm, failure)

@@ -20,12 +20,13 @@ import math
 from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from functools import partial
 
 import numpy as np
 
 import cpl
 from executive import (
+    Designator,
     DesignatorError,
     HighLevelFailure,
     LocationDesignator,
@@ -34,9 +35,11 @@ from executive import (
     ObjectUndeliverable,
     ObjectUnfetchable,
     Pose,
+    SceneSetup,
     a,
     an,
     current_environment,
+    kitchen,
     perform,
     yaw_quaternion,
 )
@@ -55,22 +58,15 @@ __all__ = [
     "table_setting",
 ]
 
-SINK = an.object(type="counter-top", urdf_name="sink_area_surface", part_of="kitchen")
-ISLAND = an.object(type="counter-top", urdf_name="kitchen_island_surface", part_of="kitchen")
-DRAWER = an.object(type="drawer", urdf_name="sink_area_left_upper_drawer_main", part_of="kitchen")
-DRAWER_LINK = "sink_area_left_upper_drawer_main"
+SINK = an.object(type="counter-top", urdf_name=kitchen.SINK_SURFACE, part_of="kitchen")
+ISLAND = an.object(type="counter-top", urdf_name=kitchen.ISLAND_SURFACE, part_of="kitchen")
+DRAWER = an.object(type="drawer", urdf_name=kitchen.DRAWER_LINK, part_of="kitchen")
+DRAWER_LINK = kitchen.DRAWER_LINK
 
-#: The demo's objects, in CRAM's order (the bowl first: the cup, spoon and milk targets
-#: are placed relative to it).
-OBJECTS: tuple[str, ...] = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
-#: CRAM's fixed spawning poses (map).
-FIXED_POSES: Mapping[str, Pose] = {
-    "breakfast-cereal": Pose((1.4, 0.4, 0.85)),
-    "cup": Pose((1.3, 0.6, 0.9)),
-    "bowl": Pose((1.4, 0.8, 0.87)),
-    "spoon": Pose.from_xyz_yaw(1.4, 1.0, 0.74132, math.pi),
-    "milk": Pose.from_xyz_yaw(1.4, 0.62, 0.95, math.pi),
-}
+#: The demo's objects, in CRAM's order (see :data:`executive.kitchen.DEMO_OBJECTS`).
+OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
+#: CRAM's fixed spawning poses (map; :data:`executive.kitchen.DEMO_POSES`).
+FIXED_POSES: Mapping[str, Pose] = kitchen.DEMO_POSES
 #: CRAM's fixed placing pose of the cereal, map (-0.78, 0.8, 0.95), quaternion
 #: (0, 0, 0.6, 0.4) (normalised: yaw ~112.6 deg), adapted to our frames (deliberate
 #: deviation): z = island top 0.85 + half the box height 0.29 = 0.995, because our object
@@ -162,7 +158,7 @@ def _spawn_location(object_type: str) -> LocationDesignator:
 SPOON_CLEARANCE = 0.1
 
 
-def _spawn_filter(world: Any, object_type: str) -> Any:
+def _spawn_filter(world: SceneSetup, object_type: str) -> Callable[[Pose], bool]:
     """Deliberate restriction of the spoon's spawning region (CRAM: ``(range 0.2)``
     around the drawer box's centre, i.e. up to 0.29 m deep in this 0.58 m drawer): only
     the part that comes out at least :data:`SPOON_CLEARANCE` beyond the cabinet front when
@@ -176,13 +172,15 @@ def _spawn_filter(world: Any, object_type: str) -> Any:
     return lambda pose: pose.position[0] - DEFAULT_DISTANCE <= front - SPOON_CLEARANCE
 
 
-def _reachable_sample(location: LocationDesignator, accept: Any, tries: int = 30) -> Pose:
+def _reachable_sample(
+    location: LocationDesignator, accept: Callable[[Pose], bool], tries: int = 30
+) -> Pose:
     """The first sample of ``location`` that a robot location ``(reachable-for pr2)``
     resolves for (deliberate: CRAM's spawning region reaches 0.65 m deep into the
     counter, beyond the arm's reach from any collision-free base pose, so such objects
     were unfetchable); after ``tries`` samples, the last one."""
-    current: Any = location
-    sample = location.reference()
+    current: Designator = location
+    sample: Pose = location.reference()
     for _ in range(tries):
         sample = current.reference()
         if not accept(sample):
@@ -194,18 +192,21 @@ def _reachable_sample(location: LocationDesignator, accept: Any, tries: int = 30
         reach = a.location(reachable_for="pr2", location=a.location(pose=sample))
         try:
             reach.reference()
-            return sample  # type: ignore[no-any-return]
+            return sample
         except DesignatorError:
             pass
         nxt = current.next_solution()
         if nxt is None:
             break
         current = nxt
-    return sample  # type: ignore[no-any-return]
+    return sample
 
 
 def spawn_scene(
-    world: Any, objects: Sequence[str] = OBJECTS, random: bool = True, seed: int | None = None
+    world: SceneSetup,
+    objects: Sequence[str] = OBJECTS,
+    random: bool = True,
+    seed: int | None = None,
 ) -> dict[str, Pose]:
     """Spawn ``<type>-1`` for each object type on ``world`` (CRAM's demo setup): with
     ``random``, sampled from the object's spawning region (see :func:`_spawn_location`),
@@ -219,10 +220,12 @@ def spawn_scene(
     return {f"{t}-1": world.object_pose(f"{t}-1") for t in objects}
 
 
-def _spawn(world: Any, objects: Sequence[str], random: bool, rng: np.random.Generator) -> None:
+def _spawn(
+    world: SceneSetup, objects: Sequence[str], random: bool, rng: np.random.Generator
+) -> None:
     for object_type in objects:
         name = f"{object_type}-1"
-        if name in getattr(world, "objects", {}):
+        if name in world.objects:
             world.remove_object(name)
         if random:
             location = _spawn_location(object_type)
@@ -232,8 +235,9 @@ def _spawn(world: Any, objects: Sequence[str], random: bool, rng: np.random.Gene
         else:
             pose = FIXED_POSES[object_type]
         world.spawn_object(name, object_type, pose)
-        if object_type == "spoon":
-            world.attach(name, DRAWER_LINK)
+        link = kitchen.DEMO_ATTACHMENTS.get(object_type)
+        if link is not None:
+            world.attach(name, link)
 
 
 async def _initialize_or_finalize(configuration: str) -> None:
@@ -259,9 +263,7 @@ async def _finalize(names: Sequence[str]) -> None:
     :func:`plans.pick_place.release_held`), then ``initialize-or-finalize`` with the arms
     parked at the sides."""
     for name in names:
-        await ignoring(
-            lambda name=name: release_held(an.object(name=name)), (cpl.PlanFailure,)
-        )
+        await ignoring(partial(release_held, an.object(name=name)), (cpl.PlanFailure,))
     await _initialize_or_finalize("park")
 
 
@@ -291,7 +293,7 @@ async def _transport_later(
 
 
 async def table_setting(
-    world: Any,
+    world: SceneSetup,
     objects: Sequence[str] = OBJECTS,
     random: bool = True,
     seed: int | None = None,

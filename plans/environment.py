@@ -126,7 +126,7 @@ def _container_rule(action_type: str) -> Any:
         distance = float(d.get("distance", DEFAULT_DISTANCE))
         link = handle_link(container)
         try:
-            handle = current_environment().world.link_pose(link, "base_footprint")  # type: ignore[attr-defined]
+            handle = current_environment().world.link_pose(link, "base_footprint")
         except LookupError as exc:
             raise DesignatorError(f"{d.short()}: {exc}", d) from None
         yield (

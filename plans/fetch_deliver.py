@@ -51,8 +51,9 @@ from executive import (
     a,
     an,
     current_environment,
+    kitchen,
     perform,
-    retry_with_designator_solutions,
+    retry_scope,
     rule,
 )
 
@@ -65,6 +66,7 @@ from ._common import (
     to_base,
     to_map,
     translating_designator_errors,
+    translating_failures,
 )
 from .atomic import park_arms
 from .checks import (
@@ -141,33 +143,32 @@ async def turn_towards(target: LocationDesignator) -> None:
     """Look at ``target``; on ``ptu-low-level-failure`` (1 retry) turn the base towards it
     (``navigating``), look forward and look again. Raises ``LookingHighLevelFailure`` when
     the retry is used up, and for designator errors and navigation high-level failures."""
-    turns = CountedRetries(1, "turns")
 
+    @retry_scope(
+        PtuLowLevelFailure,
+        None,
+        CountedRetries(1, "turns"),
+        before_retry=lambda: _turn_base_towards(target),
+        rethrow=lambda _f: LookingHighLevelFailure(f"cannot look at {target.short()}"),
+    )
     async def look() -> None:
         await perform(an.action(type="looking", target=target))
 
-    async def turn_base(failure: BaseException) -> None:
-        if turns.do_retry():
-            base = _turned_base(target.current().reference())
-            await perform(an.action(type="navigating", location=a.location(pose=base)))
-            # deliberate: a ptu failure of this look forward is ignored (in CRAM it escaped
-            # the handler as a low-level failure and ended the whole transport); the retry
-            # looks at the target again anyway
-            await perform_ignoring(
-                an.action(type="looking", direction="forward"), PtuLowLevelFailure
-            )
-            cpl.retry()
-        raise LookingHighLevelFailure(f"cannot look at {target.short()}") from failure
-
-    async def body() -> None:
-        await cpl.with_failure_handling(look, [(PtuLowLevelFailure, turn_base)])
-
-    def translate(failure: BaseException) -> None:
-        raise LookingHighLevelFailure(str(failure)) from failure
-
-    await cpl.with_failure_handling(
-        body, [((DesignatorError, NavigationHighLevelFailure), translate)]
+    await translating_failures(
+        (DesignatorError, NavigationHighLevelFailure),
+        look,
+        lambda failure: LookingHighLevelFailure(str(failure)),
     )
+
+
+async def _turn_base_towards(target: LocationDesignator) -> None:
+    """Turn the base towards ``target`` and look forward (before looking again)."""
+    base = _turned_base(target.current().reference())
+    await perform(an.action(type="navigating", location=a.location(pose=base)))
+    # deliberate: a ptu failure of this look forward is ignored (in CRAM it escaped the
+    # handler as a low-level failure and ended the whole transport); the retry looks at
+    # the target again anyway
+    await perform_ignoring(an.action(type="looking", direction="forward"), PtuLowLevelFailure)
 
 
 @rule("action", "turning-towards")
@@ -179,6 +180,9 @@ def _turning_towards(d: Designator) -> Iterator[Any]:
 #: Torso height (m) from which ``searching`` looks a second time (the upper limit: camera
 #: at ~1.6 m).
 SEARCH_TORSO_HEIGHT = 0.33
+
+#: The failures after which ``searching`` tries the next sample of its location.
+SEARCH_FAILURES = (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure)
 
 
 @cpl.plan(name="search-for-object")
@@ -192,56 +196,42 @@ async def search_for_object(
     sample of ``location`` (9 retries).
     Raises ``ObjectNowhereToBeFound`` when samples or retries run out (and for designator
     errors). Returns the perceived designator."""
-    search_location = SolutionCursor(location)
-    searches = CountedRetries(retries, "search")
+    spots = SolutionCursor(location)
 
+    def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
+        return ObjectNowhereToBeFound(object=object_label(object_designator))
+
+    @retry_scope(SEARCH_FAILURES, spots, CountedRetries(retries, "search"), rethrow=nowhere)
     async def look_there() -> ObjectDesignator:
-        spot = search_location.current.reference()
+        spot = spots.current.reference()
         view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
         await perform(an.action(type="navigating", location=view))
         await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
-        torso_raises = CountedRetries(1, "search-torso")
 
+        # v0.8.1's torso retry: a taller object in front may hide the one sought from the
+        # default camera height; raise the camera and look again.
+        @retry_scope(
+            PerceptionLowLevelFailure,
+            None,
+            CountedRetries(1, "search-torso"),
+            before_retry=lambda: _look_from_higher(spot),
+        )
         async def detect() -> ObjectDesignator:
             found: ObjectDesignator = await perform(
                 an.action(type="detecting", object=object_designator)
             )
             return found
 
-        async def look_from_higher(_failure: BaseException) -> None:
-            # v0.8.1's torso retry: a taller object in front may hide the one sought
-            # from the default camera height; raise the camera and look again.
-            if torso_raises.do_retry():
-                await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
-                await perform(
-                    an.action(type="turning-towards", target=a.location(pose=spot))
-                )
-                cpl.retry()
+        return await detect()
 
-        result: ObjectDesignator = await cpl.with_failure_handling(
-            detect, [(PerceptionLowLevelFailure, look_from_higher)]
-        )
-        return result
-
-    def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
-        return ObjectNowhereToBeFound(object=object_label(object_designator))
-
-    async def body() -> ObjectDesignator:
-        found: ObjectDesignator = await cpl.with_failure_handling(
-            look_there,
-            [
-                (
-                    (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure),
-                    lambda _f: retry_with_designator_solutions(
-                        search_location, searches, rethrow=nowhere()
-                    ),
-                )
-            ],
-        )
-        return found
-
-    result: ObjectDesignator = await translating_designator_errors(body, nowhere)
+    result: ObjectDesignator = await translating_designator_errors(look_there, nowhere)
     return result
+
+
+async def _look_from_higher(spot: Pose) -> None:
+    """Raise the torso to :data:`SEARCH_TORSO_HEIGHT` and turn towards ``spot`` again."""
+    await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
+    await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
 @rule("action", "searching")
@@ -280,13 +270,24 @@ async def fetch(
             if robot_location is not None
             else a.location(reachable_for=ROBOT, location=a.location(pose=object_pose), arm=arm)
         )
-        relocations = CountedRetries(10, "relocations")
 
+        @retry_scope(
+            FETCH_RELOCATION_FAILURES,
+            base_poses,
+            CountedRetries(10, "relocations"),
+            rethrow=unfetchable,
+        )
         async def from_here() -> None:
             await perform(an.action(type="navigating", location=base_poses.current))
             await perform(an.action(type="turning-towards", target=a.location(pose=object_pose)))
-            regrasps = CountedRetries(1, "regrasps")
 
+            @retry_scope(
+                GripperLowLevelFailure,
+                None,
+                CountedRetries(1, "regrasps"),
+                before_retry=park_arms,
+                rethrow=lambda _f: ObjectUnreachable(object=object_label(object_designator)),
+            )
             async def pick() -> None:
                 perceived = await perform(an.action(type="detecting", object=object_designator))
                 given_arm, given_grasp = _arm_and_grasp(pick_up_action)
@@ -298,36 +299,24 @@ async def fetch(
                 )
                 await perform(check_picking_up_collisions(picking))
 
-            async def regrasp(failure: BaseException) -> None:
-                if regrasps.do_retry():
-                    await park_arms()
-                    cpl.retry()
-                raise ObjectUnreachable(object=object_label(object_designator)) from failure
+            await pick()
 
-            await cpl.with_failure_handling(pick, [(GripperLowLevelFailure, regrasp)])
-
-        await cpl.with_failure_handling(
-            from_here,
-            [
-                (
-                    (
-                        NavigationGoalInCollision,
-                        LookingHighLevelFailure,
-                        PerceptionLowLevelFailure,
-                        ObjectUnreachable,
-                        ManipulationLowLevelFailure,
-                    ),
-                    lambda _f: retry_with_designator_solutions(
-                        base_poses, relocations, rethrow=unfetchable()
-                    ),
-                )
-            ],
-        )
+        await from_here()
         await park_arms()
-        return object_designator.current()  # type: ignore[return-value]
+        return object_designator.current()
 
     result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
     return result
+
+
+#: The failures after which ``fetch`` goes to the next base pose.
+FETCH_RELOCATION_FAILURES = (
+    NavigationGoalInCollision,
+    LookingHighLevelFailure,
+    PerceptionLowLevelFailure,
+    ObjectUnreachable,
+    ManipulationLowLevelFailure,
+)
 
 
 def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
@@ -409,7 +398,7 @@ async def deliver(
     or an unstable placing pose): turn towards the target, check its stability (v0.8.1),
     build ``placing`` at the target in ``base_footprint``, check it
     (:func:`check_placing_collisions`) and perform it. Raises ``ObjectUndeliverable``."""
-    targets_cursor = SolutionCursor(target)
+    targets = SolutionCursor(target)
     outer = CountedRetries(2, "deliver-targets")
     object_type = _held_type(object_designator)
     injected_spot = _injected_spot(place_action, robot_location)
@@ -417,79 +406,63 @@ async def deliver(
     def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
         return ObjectUndeliverable(object=object_label(object_designator))
 
+    @retry_scope((DesignatorError, ObjectUndeliverable), targets, outer, rethrow=undeliverable)
     async def attempt() -> None:
-        target_pose = to_map(targets_cursor.current.reference())
+        target_pose = to_map(targets.current.reference())
         given = robot_location.newest_effective() if robot_location is not None else None
         base_poses = SolutionCursor(
             given
             if given is not None
             else a.location(reachable_for=ROBOT, location=a.location(pose=target_pose))
         )
-        relocations = CountedRetries(5, "relocations")
 
+        @retry_scope(
+            DELIVER_RELOCATION_FAILURES,
+            base_poses,
+            CountedRetries(5, "relocations"),
+            rethrow=undeliverable,
+        )
         async def from_here() -> None:
             await perform(an.action(type="navigating", location=base_poses.current))
-            targets = CountedRetries(2, "targets")
 
+            @retry_scope(
+                DELIVER_TARGET_FAILURES,
+                targets,
+                CountedRetries(2, "targets"),
+                rethrow=undeliverable,
+            )
             async def place_at_target() -> None:
-                spot = to_map(targets_cursor.current.reference())
-                await perform(an.action(type="turning-towards", target=targets_cursor.current))
+                spot = to_map(targets.current.reference())
+                await perform(an.action(type="turning-towards", target=targets.current))
                 check_placing_pose_stability(object_type, spot)
-                goal: Any = a.location(pose=to_base(spot))
+                goal = a.location(pose=to_base(spot))
                 if injected_spot is not None:
                     goal = a.location(pose=to_base(injected_spot))
                 # no explicit pose: a costmap sample, whose identity orientation means
                 # nothing; the placing keeps the held yaw (see plans.pick_place)
-                free_yaw = "pose" not in targets_cursor.current
+                free_yaw = "pose" not in targets.current
                 placing = an.action(
                     type="placing", object=object_designator, target=goal, free_yaw=free_yaw
                 )
                 await perform(check_placing_collisions(placing))
 
-            await cpl.with_failure_handling(
-                place_at_target,
-                [
-                    (
-                        (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable),
-                        lambda _f: retry_with_designator_solutions(
-                            targets_cursor, targets, rethrow=undeliverable()
-                        ),
-                    )
-                ],
-            )
+            await place_at_target()
 
-        await cpl.with_failure_handling(
-            from_here,
-            [
-                (
-                    (
-                        NavigationGoalInCollision,
-                        ObjectUndeliverable,
-                        ManipulationLowLevelFailure,
-                    ),
-                    lambda _f: retry_with_designator_solutions(
-                        base_poses, relocations, rethrow=undeliverable()
-                    ),
-                )
-            ],
-        )
-
-    async def body() -> None:
-        await cpl.with_failure_handling(
-            attempt,
-            [
-                (
-                    (DesignatorError, ObjectUndeliverable),
-                    lambda _f: retry_with_designator_solutions(
-                        targets_cursor, outer, rethrow=undeliverable()
-                    ),
-                )
-            ],
-        )
+        await from_here()
 
     # CRAM: designator-error -> object-undeliverable (also one raised while advancing a
     # target that has no solution at all, e.g. an empty costmap)
-    await translating_designator_errors(body, undeliverable)
+    await translating_designator_errors(attempt, undeliverable)
+
+
+#: The failures after which ``deliver`` goes to the next base pose.
+DELIVER_RELOCATION_FAILURES = (
+    NavigationGoalInCollision,
+    ObjectUndeliverable,
+    ManipulationLowLevelFailure,
+)
+#: The failures after which ``deliver`` tries the next target from where it stands.
+DELIVER_TARGET_FAILURES = (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable)
 
 
 def _held_type(obj: ObjectDesignator) -> str:
@@ -497,7 +470,7 @@ def _held_type(obj: ObjectDesignator) -> str:
     if isinstance(otype, str):
         return otype
     name = obj.current().get("name")
-    return current_environment().world.object_type(name)  # type: ignore[attr-defined,no-any-return]
+    return current_environment().world.object_type(name)
 
 
 @rule("action", "delivering")
@@ -518,7 +491,7 @@ def _delivering(d: Designator) -> Iterator[Any]:
 SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
 SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
 #: The counter the object is put down on at the sink, and the gap (m) left below it.
-SINK_SURFACE = "sink_area_surface"
+SINK_SURFACE = kitchen.SINK_SURFACE
 SINK_DROP_CLEARANCE = 0.01
 
 
@@ -528,16 +501,15 @@ def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
     the held object's bottom is :data:`SINK_DROP_CLEARANCE` above the sink counter's top,
     from the world model's ``link_aabb`` and ``object_aabb`` (CRAM released it 1.2 m above
     the floor, 0.35 m above our counter: a bowl or cup bounced and rolled off the
-    counter's front edge onto the floor). A world model without those: CRAM's pose."""
+    counter's front edge onto the floor). A world model that knows neither extent
+    (``LookupError``): CRAM's pose."""
     world = current_environment().world
-    link_aabb = getattr(world, "link_aabb", None)
-    object_aabb = getattr(world, "object_aabb", None)
     name = object_designator.current().get("name")
-    if link_aabb is None or object_aabb is None or not isinstance(name, str):
+    if not isinstance(name, str):
         return SINK_DROP_POSE
     try:
-        top = link_aabb(SINK_SURFACE)[1][2]
-        lo, hi = object_aabb(name)
+        top = world.link_aabb(SINK_SURFACE)[1][2]
+        lo, hi = world.object_aabb(name)
     except LookupError:
         return SINK_DROP_POSE
     half = (hi[2] - lo[2]) / 2.0
@@ -677,39 +649,38 @@ async def manipulate_environment(
     async def body() -> None:
         link = handle_link(container)
         try:
-            handle = current_environment().world.link_pose(link, "map")  # type: ignore[attr-defined]
+            handle = current_environment().world.link_pose(link, "map")
         except LookupError as error:
             raise DesignatorError(f"{container.short()}: {error}", container) from error
         base_poses = SolutionCursor(
             a.location(reachable_for=ROBOT, location=a.location(pose=handle), arm=arm)
         )
-        relocations = CountedRetries(10, "relocations")
         allowed = (link, str(container.get("urdf-name")))
 
+        @retry_scope(
+            ENVIRONMENT_RELOCATION_FAILURES,
+            base_poses,
+            CountedRetries(10, "relocations"),
+            rethrow=impossible,
+        )
         async def from_here() -> None:
             await perform(an.action(type="navigating", location=base_poses.current))
             verb = "opening" if action_type == "accessing" else "closing"
             action = an.action(type=verb, object=container, arm=arm, distance=distance)
             await perform(check_environment_manipulation_collisions(action, allowed))
 
-        await cpl.with_failure_handling(
-            from_here,
-            [
-                (
-                    (
-                        NavigationGoalInCollision,
-                        EnvironmentUnreachable,
-                        GripperLowLevelFailure,
-                        ManipulationLowLevelFailure,
-                    ),
-                    lambda _f: retry_with_designator_solutions(
-                        base_poses, relocations, rethrow=impossible()
-                    ),
-                )
-            ],
-        )
+        await from_here()
 
     await translating_designator_errors(body, impossible)
+
+
+#: The failures after which ``accessing`` / ``sealing`` go to the next base pose.
+ENVIRONMENT_RELOCATION_FAILURES = (
+    NavigationGoalInCollision,
+    EnvironmentUnreachable,
+    GripperLowLevelFailure,
+    ManipulationLowLevelFailure,
+)
 
 
 def _environment_rule(action_type: str) -> Any:

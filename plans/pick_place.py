@@ -183,15 +183,14 @@ def verify_grasp(object_designator: Any, arm: str, after: str, *, attached: bool
     reports (the robot's finger joints) against the type's :data:`GRIP_WIDTHS`. Outside
     them the object is not (or no longer) held: :func:`object_lost` (``attached``: whether
     ``ObjectAttached`` was emitted already; if not, the failure is only raised, nothing is
-    detached). A world model without ``gripper_opening`` cannot tell; then nothing is
-    checked (logged). Deliberate addition: CRAM trusted a grip that did not close
-    completely."""
-    world = current_environment().world
-    opening_of = getattr(world, "gripper_opening", None)
-    if opening_of is None:
-        _log.debug("grasp after %s not verified: the world model has no gripper_opening", after)
+    detached). A world model that does not know the opening (None) cannot tell; then
+    nothing is checked (logged). Deliberate addition: CRAM trusted a grip that did not
+    close completely."""
+    measured = current_environment().world.gripper_opening(arm)
+    if measured is None:
+        _log.debug("grasp after %s not verified: the world model has no gripper opening", after)
         return
-    opening = float(opening_of(arm))
+    opening = float(measured)
     otype = object_designator_type(object_designator)
     low, high = GRIP_WIDTHS.get(otype, (MIN_HELD_OPENING, math.inf))
     if low <= opening <= high:
@@ -218,7 +217,7 @@ def object_designator_type(object_designator: Any) -> str:
     otype = obj.get("type") if hasattr(obj, "get") else None
     if isinstance(otype, str):
         return otype
-    return current_environment().world.object_type(object_name(obj))  # type: ignore[attr-defined,no-any-return]
+    return current_environment().world.object_type(object_name(obj))
 
 
 def object_lost(object_designator: Any, arm: str, during: str, failure: BaseException) -> None:
@@ -253,7 +252,7 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     given = d.get("object")
     if not isinstance(given, ObjectDesignator):
         raise DesignatorError(f"{d.short()} needs an object designator", d)
-    obj: ObjectDesignator = given.current()  # type: ignore[assignment]
+    obj: ObjectDesignator = given.current()
     otype = obj.type
     try:
         info = knowledge.object_knowledge(otype)
@@ -371,20 +370,20 @@ def _placing(d: Designator) -> Iterator[Any]:
     world = current_environment().world
     given = d.get("object")
     arms = (d["arm"],) if "arm" in d else knowledge.ARMS
-    held = [(arm, world.object_in_hand(arm)) for arm in arms]  # type: ignore[attr-defined]
+    in_hand = [(arm, world.object_in_hand(arm)) for arm in arms]
+    held = [(arm, n) for arm, n in in_hand if n is not None]
     if isinstance(given, ObjectDesignator) and given.current().get("name"):
         name = given.current().get("name")
         held = [(arm, n) for arm, n in held if n == name]
-    held = [(arm, n) for arm, n in held if n is not None]
     if not held:
         raise DesignatorError(f"{d.short()}: the robot holds no such object", d)
     target = d.get("target")
     free_yaw = bool(d.get("free-yaw", False))
     for arm, name in held:
         obj = given.current() if isinstance(given, ObjectDesignator) else an.object(name=name)
-        otype = world.object_type(name)  # type: ignore[attr-defined]
+        otype = world.object_type(name)
         obj_map = world.object_pose(name, "map").to_transform()
-        tool_map = world.link_pose(tool_frame(arm), "map").to_transform()  # type: ignore[attr-defined]
+        tool_map = world.link_pose(tool_frame(arm), "map").to_transform()
         object_t_tool = obj_map.inverse() * tool_map
         if target is None:
             targets: Any = [world.object_pose(name, "base_footprint")]
@@ -419,11 +418,8 @@ async def release_held(object_designator: Any) -> None:
     ``drop-at-sink``: CRAM only detached inside ``place``, so a failed drop left the object
     in the hand for the rest of the demo."""
     world = current_environment().world
-    in_hand = getattr(world, "object_in_hand", None)
-    if in_hand is None:
-        return
     name = object_name(object_designator)
     for arm in knowledge.ARMS:
-        if in_hand(arm) == name:
+        if world.object_in_hand(arm) == name:
             await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
             emit(ObjectDetached(object_designator, arm, wrist_link(arm)))

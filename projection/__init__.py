@@ -34,12 +34,12 @@ _EXPORTS = MappingProxyType(
         "ProjectedWorldModel": "projection._world_model",
         "with_projected_robot": "projection._environment",
         "ProjectionImagination": "projection._imagination",
-        "FaultProfile": "projection._real_robot",
-        "RealWorldModel": "projection._real_robot",
-        "make_world_pair": "projection._real_robot",
-        "real_robot_clock": "projection._real_robot",
-        "settle": "projection._real_robot",
-        "with_real_robot": "projection._real_robot",
+        "FaultProfile": "projection._real_faults",
+        "RealWorldModel": "projection._real_world_model",
+        "make_world_pair": "projection._scene",
+        "real_robot_clock": "projection._real_clock",
+        "settle": "projection._real_body",
+        "with_real_robot": "projection._real_environment",
         "render": "projection.render",
     }
 )
@@ -62,14 +62,12 @@ if TYPE_CHECKING:
     from projection import render
     from projection._environment import with_projected_robot
     from projection._imagination import ProjectionImagination
-    from projection._real_robot import (
-        FaultProfile,
-        RealWorldModel,
-        make_world_pair,
-        real_robot_clock,
-        settle,
-        with_real_robot,
-    )
+    from projection._real_body import settle
+    from projection._real_clock import real_robot_clock
+    from projection._real_environment import with_real_robot
+    from projection._real_faults import FaultProfile
+    from projection._real_world_model import RealWorldModel
+    from projection._scene import make_world_pair
     from projection._world import World
     from projection._world_model import ProjectedWorldModel
 

@@ -500,7 +500,8 @@ def add_reachable_in_drawer(
 
     def minimal(x: Array, y: Array) -> Array:
         d = shoulder_distance(x, y)
-        return ((d >= REACH_MINIMAL_DISTANCE) & np.isfinite(d)).astype(float)
+        inside: Array = (d >= REACH_MINIMAL_DISTANCE) & np.isfinite(d)
+        return inside.astype(float)
 
     cm.add("drawer-side", beside, 6)
     cm.add("drawer-reach", reach, 7)

@@ -39,24 +39,45 @@ from projection._world import World
 
 __all__ = [
     "ArmsPM",
+    "CommandDispatch",
     "GrippersPM",
     "NavigationPM",
     "PerceptionPM",
     "ProjectionProcessModule",
     "PtuPM",
     "TorsoPM",
+    "gripper_goal",
+    "move_arm_joints",
+    "perceived_designator",
     "projection_process_modules",
 ]
 
 _PTU_TOLERANCE = 1e-5
 
 
-class ProjectionProcessModule(ProcessModule):
+class CommandDispatch(ProcessModule):
+    """A process module that executes resolved commands: :meth:`command_of` resolves a
+    motion designator to its :class:`executive.MotionCommand` and checks that this module
+    executes it (:attr:`commands`), else raises :class:`executive.DesignatorError`. Shared
+    by the projected and the real robot's modules."""
+
+    commands: ClassVar[frozenset[str]] = frozenset()
+
+    def command_of(self, motion: Designator) -> MotionCommand:
+        command, args = motion.reference()
+        if command not in self.commands:
+            raise executive.DesignatorError(
+                f"process module {self.name!r} cannot execute the command {command!r} of "
+                f"{motion.short()} (it executes {', '.join(sorted(self.commands))})",
+                motion,
+            )
+        return MotionCommand(command, args)
+
+
+class ProjectionProcessModule(CommandDispatch):
     """A process module acting on one :class:`World`. Subclasses implement
     :meth:`run` for each resolved command; a command this module does not know raises
     :class:`executive.DesignatorError`."""
-
-    commands: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, world: World, name: str) -> None:
         if not isinstance(world, World):
@@ -65,18 +86,53 @@ class ProjectionProcessModule(ProcessModule):
         self.world = world
 
     async def execute(self, motion: Designator) -> Any:
-        command, args = motion.reference()
-        if command not in self.commands:
-            raise executive.DesignatorError(
-                f"process module {self.name!r} cannot execute the command {command!r} of "
-                f"{motion.short()} (it executes {', '.join(sorted(self.commands))})",
-                motion,
-            )
-        return self.run(MotionCommand(command, args), motion)
+        return self.run(self.command_of(motion), motion)
 
     @abc.abstractmethod
     def run(self, command: MotionCommand, motion: Designator) -> Any:
         """Execute one resolved command (synchronously: projected motions teleport)."""
+
+
+def perceived_designator(
+    motion: Designator, wanted: Designator, type: str, name: str, pose: Pose, transform: Any
+) -> Designator:
+    """The result of a ``detecting`` motion: a new object designator ``(type T) (name N)
+    (pose <map pose>) (transform <base_footprint -> N>)`` followed by ``wanted``'s other
+    properties, equated to the motion's object designator (or ``wanted``), and announced
+    with :class:`executive.events.ObjectPerceived`."""
+    own = {"type", "name", "pose", "transform"}
+    perceived = an.object(
+        ("type", type),
+        ("name", name),
+        ("pose", pose),
+        ("transform", transform),
+        *((k, v) for k, v in wanted.properties if k not in own),
+    )
+    original = motion.get("object")
+    equate(original if isinstance(original, Designator) else wanted, perceived)
+    emit(ObjectPerceived(perceived))
+    return perceived
+
+
+def gripper_goal(command: MotionCommand) -> tuple[str, str | float, list[str]]:
+    """A gripper command's ``(action, goal, arms)``: the goal is the action (``open``,
+    ``close``, ``grip``) or, for ``angle``, the opening in metres."""
+    args = command.arguments
+    action = args["action"]
+    goal = args["joint_angle"] if action == "angle" else action
+    grippers = args["gripper"]
+    return action, goal, [grippers] if isinstance(grippers, str) else list(grippers)
+
+
+def move_arm_joints(world: World, args: Mapping[str, Any]) -> None:
+    """:meth:`World.move_joints` for a ``move-joints`` command; bad values raise
+    :class:`executive.ManipulationGoalNotReached` (arms unchanged)."""
+    try:
+        world.move_joints(left=args.get("left"), right=args.get("right"))
+    except ValueError as exc:
+        raise ManipulationGoalNotReached(
+            str(exc), left=args.get("left"), right=args.get("right")
+        ) from exc
 
 
 class NavigationPM(ProjectionProcessModule):
@@ -181,18 +237,9 @@ class PerceptionPM(ProjectionProcessModule):
     def run(self, command: MotionCommand, motion: Designator) -> Designator:
         wanted: Designator = command.arguments["object"]
         found = self.world.detect(wanted)[0]
-        own = {"type", "name", "pose", "transform"}
-        perceived = an.object(
-            ("type", found.type),
-            ("name", found.name),
-            ("pose", found.map_pose),
-            ("transform", found.transform),
-            *((k, v) for k, v in wanted.properties if k not in own),
+        return perceived_designator(
+            motion, wanted, found.type, found.name, found.map_pose, found.transform
         )
-        original = motion.get("object")
-        equate(original if isinstance(original, Designator) else wanted, perceived)
-        emit(ObjectPerceived(perceived))
-        return perceived
 
 
 class GripperMotions:
@@ -222,10 +269,8 @@ class GrippersPM(GripperMotions, ProjectionProcessModule):
         super().__init__(world, "grippers")
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
-        args = command.arguments
-        action = args["action"]
-        goal = args["joint_angle"] if action == "angle" else action
-        self.world.gripper(goal, args["gripper"])
+        _action, goal, arms = gripper_goal(command)
+        self.world.gripper(goal, arms)
 
 
 class ArmsPM(ProjectionProcessModule):
@@ -245,13 +290,8 @@ class ArmsPM(ProjectionProcessModule):
         args: Mapping[str, Any] = command.arguments
         if command.command == "move-tcp":
             self.world.move_tcp(left=args.get("left"), right=args.get("right"))
-            return
-        try:
-            self.world.move_joints(left=args.get("left"), right=args.get("right"))
-        except ValueError as exc:
-            raise ManipulationGoalNotReached(
-                str(exc), left=args.get("left"), right=args.get("right")
-            ) from exc
+        else:
+            move_arm_joints(self.world, args)
 
 
 def projection_process_modules(world: World) -> tuple[ProjectionProcessModule, ...]:

@@ -29,6 +29,7 @@ from executive.failures import (
     ManipulationGoalInCollision,
     PerceptionObjectNotInWorld,
 )
+from executive.knowledge import ARM_PREFIX
 from projection._objects import object_type as _object_type
 from projection._world import Contact, World
 
@@ -41,11 +42,10 @@ STABILITY_THRESHOLD = 0.2
 #: How far (m) the footprints of a placed object and a neighbour may interpenetrate before
 #: the placing pose counts as overlapping it.
 OVERLAP_TOLERANCE = 0.005
-_PREFIX = {"left": "l", "right": "r"}
 
 
 def _arm(arm: Any) -> str:
-    if arm not in _PREFIX:
+    if arm not in ARM_PREFIX:
         raise ValueError(f"unknown arm {arm!r}; known arms: left, right")
     return str(arm)
 
@@ -107,7 +107,7 @@ class ProjectedWorldModel:
 
     def object_in_hand(self, arm: str) -> str | None:
         """The first object attached to a link of ``arm`` (``l_*``/``r_*``), or None."""
-        prefix = _PREFIX[_arm(arm)] + "_"
+        prefix = ARM_PREFIX[_arm(arm)] + "_"
         for name, link in self.world.attachments.items():
             if link in self._robot_links and link.startswith(prefix):
                 return name
@@ -117,7 +117,7 @@ class ProjectedWorldModel:
         """A robot or kitchen link's pose; unknown links raise LookupError."""
         return self.world.link_pose(link, frame)
 
-    def gripper_opening(self, arm: str) -> float:
+    def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
         finger joints; a real robot's belief has them from its joint states)."""
         return self.world.gripper_opening(_arm(arm))
@@ -142,7 +142,7 @@ class ProjectedWorldModel:
         world = self.world
         if isinstance(event, ObjectAttached):
             name = self._known(object_name(event.object))
-            link = event.link or f"{_PREFIX[_arm(event.arm)]}_wrist_roll_link"
+            link = event.link or f"{ARM_PREFIX[_arm(event.arm)]}_wrist_roll_link"
             world.attach(name, link)
         elif isinstance(event, ObjectDetached):
             name = self._known(object_name(event.object))

@@ -1,4 +1,6 @@
-"""Shared test helpers: run a plan on a mock clock with a transition checker."""
+"""Shared test setup: pytester, aiocram's own pytest plugin (the ``pytest11`` entry point
+registers it when the package is installed; naming it here keeps the suite working from a
+source checkout, and is a no-op otherwise), and a fresh run history per test."""
 
 from __future__ import annotations
 
@@ -6,50 +8,32 @@ from typing import Any
 
 import pytest
 
-import cpl
-from cpl._status import LEGAL_TRANSITIONS
-from cpl.testing import MockClock
+from cpl.testing import TransitionChecker
 
-
-class TransitionChecker(cpl.Instrument):
-    """Records every status change of a run and flags illegal ones."""
-
-    def __init__(self) -> None:
-        self.transitions: list[tuple[tuple[str, ...], cpl.Status, cpl.Status]] = []
-        self.illegal: list[tuple[tuple[str, ...], cpl.Status, cpl.Status]] = []
-        self.tasks: list[cpl.Task] = []
-
-    def task_spawned(self, task: cpl.Task) -> None:
-        self.tasks.append(task)
-
-    def run_started(self, root: cpl.Task) -> None:
-        self.tasks.append(root)
-
-    def task_status_changed(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
-        rec = (task.path, old, new)
-        self.transitions.append(rec)
-        if new not in LEGAL_TRANSITIONS[old]:
-            self.illegal.append(rec)
-
-    def alive(self) -> list[cpl.Task]:
-        return [t for t in self.tasks if t.alive]
+pytest_plugins = ["pytester", "aiocram.testing.pytest_plugin"]
 
 
 @pytest.fixture
-def checker() -> TransitionChecker:
-    return TransitionChecker()
+def checker(cpl_checker: TransitionChecker) -> TransitionChecker:
+    """The plugin's ``cpl_checker`` (the name the project's older tests use)."""
+    return cpl_checker
 
 
 @pytest.fixture
-def mrun(checker: TransitionChecker) -> Any:
-    """``mrun(fn, *args, name=...)``: cpl.run on a MockClock; afterwards asserts that no
-    task is alive and every transition was legal."""
+def mrun(cpl_run: Any) -> Any:
+    """The plugin's ``cpl_run`` (the name the project's older tests use):
+    ``mrun(fn, *args, name=...)`` runs on a MockClock in a worker thread with a wall-clock
+    deadline (a hang fails with the task tree), then asserts that no task is alive and
+    every transition was legal."""
+    return cpl_run
 
-    def go(fn: Any, *args: Any, name: str | None = "test", **kw: Any) -> Any:
-        try:
-            return cpl.run(fn, *args, name=name, clock=MockClock(), instruments=[checker], **kw)
-        finally:
-            assert checker.illegal == [], checker.illegal
-            assert checker.alive() == [], checker.alive()
 
-    return go
+@pytest.fixture(autouse=True)
+def _fresh_run_history() -> Any:
+    """Each test starts and ends with an empty process-wide run history (the one store
+    behind ``cpl.task_tree(name)``), so no test reads another test's runs."""
+    from cpl._runtime import DEFAULT_HISTORY
+
+    DEFAULT_HISTORY.clear()
+    yield
+    DEFAULT_HISTORY.clear()

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import cpl
 from cpl._status import LEGAL_TRANSITIONS
-from cpl.testing import MockClock
+from cpl.testing import MockClock, run_guarded
 
 FORMS = {
     "seq": cpl.seq,
@@ -24,9 +24,20 @@ FORMS = {
 }
 
 leaf = st.tuples(st.just("leaf"), st.integers(0, 5), st.sampled_from(["ok", "ok", "fail"]))
+# An orphan: a leaf that spawns a child which outlives the leaf's body (left running, with
+# a cleanup that awaits); the leaf's teardown evaporates it and waits for that cleanup.
+orphan = st.tuples(
+    st.just("orphan"), st.integers(0, 5), st.sampled_from(["ok", "ok", "fail"]), st.integers(0, 3)
+)
 trees = st.recursive(
-    leaf,
-    lambda kids: st.tuples(st.sampled_from(sorted(FORMS)), st.lists(kids, min_size=1, max_size=4)),
+    st.one_of(leaf, orphan),
+    lambda kids: st.one_of(
+        st.tuples(st.sampled_from(sorted(FORMS)), st.lists(kids, min_size=1, max_size=4)),
+        # a spawned subtree: a task whose body returns while the subtree still runs
+        st.tuples(st.just("spawn"), kids, st.integers(0, 3)),
+        # a joined child (with_task: runs inline in the parent's asyncio task)
+        st.tuples(st.just("with"), kids),
+    ),
     max_leaves=12,
 )
 
@@ -48,6 +59,50 @@ class Recorder(cpl.Instrument):
 
 
 def build(spec, counts, ids):
+    if spec[0] == "orphan":
+        _, delay, outcome, cleanup = spec
+        n = next(ids)
+        m = next(ids)
+
+        async def lingering():
+            counts[m] += 0
+            try:
+                await cpl.sleep(1000)
+            finally:
+                await cpl.shielded(cpl.sleep(cleanup))
+                counts[m] += 1
+
+        async def run_orphan():
+            counts[n] += 0
+            try:
+                cpl.spawn(lingering(), name="orphan")
+                await cpl.sleep(delay)
+                if outcome == "fail":
+                    raise cpl.PlanFailure(f"leaf {n}")
+                return n
+            finally:
+                counts[n] += 1
+
+        return run_orphan
+    if spec[0] == "spawn":
+        _, kid, linger = spec
+        child = build(kid, counts, ids)
+
+        async def run_spawner():
+            sub = cpl.spawn(child(), name="spawned")
+            await cpl.sleep(linger)
+            if sub.dead:
+                return await sub.join()
+            return None  # the subtree outlives the body: teardown evaporates it
+
+        return run_spawner
+    if spec[0] == "with":
+        inner = build(spec[1], counts, ids)
+
+        async def run_with():
+            return await cpl.with_task(inner(), name="with")
+
+        return run_with
     if spec[0] == "leaf":
         _, delay, outcome = spec
         n = next(ids)
@@ -75,8 +130,12 @@ def build(spec, counts, ids):
 def oracle(spec):
     """Whether the tree succeeds without evaporations: True, False, or None when timing
     decides (pursue of mixed outcomes)."""
-    if spec[0] == "leaf":
+    if spec[0] in ("leaf", "orphan"):
         return spec[2] == "ok"
+    if spec[0] == "spawn":
+        return None  # timing decides whether the subtree's outcome is joined
+    if spec[0] == "with":
+        return oracle(spec[1])
     form, kids = spec
     outs = [oracle(k) for k in kids]
     if form in ("seq", "par"):
@@ -90,19 +149,26 @@ def oracle(spec):
     return None if len(set(outs)) > 1 else outs[0]  # pursue: timing decides
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(spec=trees, kill_at=st.one_of(st.none(), st.integers(0, 6)), victim=st.integers(0, 50))
-def test_random_trees_keep_invariants(spec, kill_at, victim):
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    spec=trees,
+    kills=st.lists(st.tuples(st.integers(0, 6), st.integers(0, 50)), max_size=3),
+)
+def test_random_trees_keep_invariants(spec, kills):
+    """Random trees with orphans, spawned subtrees, nested teardowns and up to three
+    evaporations at random times (also of tasks already tearing down). Each example is
+    guarded: a hang fails with the task tree instead of blocking the suite."""
     counts = collections.Counter()
-    started = set()
     rec = Recorder()
     ids = iter(range(10_000))
     body = build(spec, counts, ids)
 
     async def main():
         tree_task = cpl.spawn(body(), name="tree")
-        if kill_at is not None:
-            await cpl.sleep(kill_at)
+        now = 0
+        for at, victim in sorted(kills):
+            await cpl.sleep(at - now)
+            now = at
             alive = [
                 t
                 for t in rec.tasks
@@ -117,11 +183,11 @@ def test_random_trees_keep_invariants(spec, kill_at, victim):
         except cpl.PlanFailure as f:
             return ("failed", f)
 
-    outcome = cpl.run(main, clock=MockClock(), instruments=[rec])
+    outcome = run_guarded(main, clock=MockClock(), instruments=[rec], wall_timeout=20.0)
     started = set(counts)
     assert rec.illegal == []
     assert [t for t in rec.tasks if t.alive] == []
     assert all(counts[n] == 1 for n in started), counts
     expected = oracle(spec)
-    if kill_at is None and expected is not None:
+    if not kills and expected is not None:
         assert (outcome[0] == "ok") == expected, (spec, outcome)

@@ -290,6 +290,25 @@ def test_rules_run_in_priority_order_and_concatenate() -> None:
     in_env({"rules": rules}, body)
 
 
+def test_restoring_undoes_registrations_and_their_cached_lookups() -> None:
+    rules = RuleSet()
+    rules.register("object", "kept", lambda d: iter(["kept"]))
+
+    def kept() -> Any:
+        return in_env({"rules": rules}, lambda: an.object(type="kept").reference())
+
+    assert kept() == "kept"
+    with rules.restoring():
+        rules.register("object", "temporary", lambda d: iter(["t"]))
+        rules.register_location_generator(lambda d: iter([Pose((1.0, 2.0, 0.0))]))
+        assert in_env({"rules": rules}, lambda: a.location().reference()) == Pose((1, 2, 0))
+        assert "temporary" in rules.known_types("object")
+    assert "temporary" not in rules.known_types("object")
+    assert kept() == "kept"
+    with pytest.raises(DesignatorError):
+        in_env({"rules": rules}, lambda: a.location().reference())
+
+
 def test_child_rules_add_and_override() -> None:
     parent = RuleSet(parent=None, name="p")
     parent.register("object", "t", lambda d: iter(["parent"]))
@@ -337,6 +356,15 @@ async def _static_plan() -> str:
     return "ok"
 
 
+@pytest.fixture()
+def clean_static_rules() -> Iterator[None]:
+    """Registrations on executive.static_rules made by the test are undone after it."""
+    with static_rules.restoring():
+        yield
+    assert "test-static-object" not in static_rules.known_types("object")
+
+
+@pytest.mark.usefixtures("clean_static_rules")
 def test_static_rules_reach_every_environment() -> None:
     @rule("action", "test-static-decorated")
     def grounding(d: Any) -> Iterator[Any]:

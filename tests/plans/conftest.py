@@ -9,10 +9,9 @@ from typing import Any
 
 import pytest
 
-import cpl
 import executive
 import plans  # noqa: F401 - registers the action rules
-from cpl.testing import MockClock
+from cpl.testing import MockClock, run_guarded
 from executive import Pose, RuleSet, static_rules
 from executive.testing import FakeProcessModule, InMemoryWorld
 
@@ -58,7 +57,7 @@ class Robot:
             async with executive.environment(env):
                 return await fn(*args)
 
-        return cpl.run(main, clock=MockClock())
+        return run_guarded(main, clock=MockClock())  # a hang fails, with its task tree
 
 
 def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.Designator:

@@ -129,7 +129,7 @@ def test_reach_precheck_never_rejects_a_reachable_target(sink: World) -> None:
 
 
 def _wrist(local: tuple[tuple[float, ...], tuple[float, ...]]) -> tuple[float, float, float]:
-    from projection._world import _wrist_point
+    from projection._world_ik import _wrist_point
 
     return _wrist_point(*local)
 

@@ -1,0 +1,182 @@
+"""The world contract: what plans, rules and scene set-up may ask of a world, split by role.
+
+- :class:`WorldModel` -- the belief state an environment needs: poses and the event hook.
+- :class:`WorldQueries` -- read-only questions plans ask (types, what a hand holds, links
+  and bounding boxes).
+- :class:`WorldProbes` -- CRAM's projection checks: imagine a motion, report, change
+  nothing.
+- :class:`ProjectionWorld` -- queries and probes together: what an
+  :class:`executive.Environment`'s ``world`` is, and so what every plan may use.
+- :class:`SceneSetup` -- what a demo needs to lay out a scene on a world before a robot
+  acts in it (spawn, remove, attach); not part of an environment.
+
+Implementations: ``projection.ProjectedWorldModel`` and ``projection.RealWorldModel``
+(PyBullet), :class:`executive.testing.InMemoryWorld` (plain Python); ``projection.World``
+is a :class:`SceneSetup`. CRAM reaches the world through Prolog queries and the
+``cram-occasions-events`` interface; we make the same questions a typed Python contract.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+from ._pose import Pose
+
+if TYPE_CHECKING:
+    from .events import Event
+
+__all__ = [
+    "AABB",
+    "ProbeResult",
+    "ProjectionWorld",
+    "SceneSetup",
+    "WorldModel",
+    "WorldProbes",
+    "WorldQueries",
+]
+
+#: An axis-aligned bounding box in ``map``: ``(min corner, max corner)``.
+AABB = tuple[tuple[float, ...], tuple[float, ...]]
+
+
+@runtime_checkable
+class WorldModel(Protocol):
+    """The belief state an environment needs (projection implements it with PyBullet,
+    :class:`executive.testing.InMemoryWorld` in memory).
+
+    Methods raise :class:`executive.PerceptionObjectNotInWorld` for unknown objects.
+    """
+
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        """The current pose of the named object in ``frame``."""
+        ...
+
+    def robot_pose(self) -> Pose:
+        """The robot base's pose in ``map``."""
+        ...
+
+    def handle_event(self, event: Event) -> None:
+        """Update the belief state for an event (attach, detach, container opened...)."""
+        ...
+
+
+@runtime_checkable
+class WorldQueries(WorldModel, Protocol):
+    """The read-only questions plans ask of the belief state."""
+
+    def object_type(self, name: str) -> str:
+        """The type of a known object (``PerceptionObjectNotInWorld`` otherwise)."""
+        ...
+
+    def object_in_hand(self, arm: str) -> str | None:
+        """The name of the object attached to ``arm``'s gripper, if any."""
+        ...
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        """The pose of a robot or environment link (``LookupError`` for unknown links)."""
+        ...
+
+    def link_aabb(self, link: str) -> AABB:
+        """A robot or environment link's bounding box in ``map`` (``LookupError`` for a
+        link the world has no extent for)."""
+        ...
+
+    def object_aabb(self, name: str) -> AABB:
+        """An object's bounding box in ``map`` (``LookupError`` when the world has no
+        extent for it)."""
+        ...
+
+    def gripper_opening(self, arm: str) -> float | None:
+        """The distance (m) between ``arm``'s finger pads, from the robot's joint states;
+        None when the world does not know it (plans then cannot verify a grasp)."""
+        ...
+
+
+@dataclass(frozen=True)
+class ProbeResult:
+    """The outcome of a projection probe: ``ok``, or why not (``failure`` is the typed
+    failure the real motion would raise, e.g. ``ManipulationPoseUnreachable``), and at which
+    waypoint (``index``)."""
+
+    ok: bool
+    failure: BaseException | None = None
+    index: int | None = None
+
+
+@runtime_checkable
+class WorldProbes(Protocol):
+    """The probes behind CRAM's projection checks (``check-navigating-collisions``,
+    ``check-picking-up-collisions``, ``check-placing-collisions``,
+    ``check-placing-pose-stability``, ``check-environment-manipulation-collisions``).
+
+    Every probe leaves the world exactly as it found it. Plans iterate designator
+    solutions around these probes (in :mod:`plans`); projection implements them with
+    PyBullet. Poses may be given in ``map`` or ``base_footprint``.
+    """
+
+    def probe_base_pose(self, pose: Pose) -> ProbeResult:
+        """Would the robot (with what it holds) stand collision-free at ``pose``?"""
+        ...
+
+    def probe_arm_trajectory(
+        self,
+        arm: str,
+        waypoints: Sequence[Pose],
+        *,
+        robot_pose: Pose | None = None,
+        gripper_opening: float | None = None,
+        allowed_contacts: Sequence[str] = (),
+        check_collisions: Sequence[bool] | bool = True,
+    ) -> ProbeResult:
+        """Move ``arm``'s tool frame through ``waypoints`` (IK with torso resampling) from
+        ``robot_pose`` (default: where the robot is). A waypoint fails if IK does not reach
+        it, or, where ``check_collisions`` is true for it, if the robot then touches
+        anything but its attached objects and the ``allowed_contacts`` (object or link
+        names)."""
+        ...
+
+    def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
+        """Would an object of ``object_type`` released at ``pose`` stay put (moved less than
+        0.2 m after ~600 simulated steps)?"""
+        ...
+
+
+@runtime_checkable
+class ProjectionWorld(WorldQueries, WorldProbes, Protocol):
+    """A world model that can answer and *imagine*: the queries and the probes. This is
+    the type of :attr:`executive.Environment.world`, so the whole of what a plan may ask
+    of the world."""
+
+
+@runtime_checkable
+class SceneSetup(Protocol):
+    """What laying out a scene needs (CRAM's demo ``spawn-object`` calls): a world the
+    caller owns, set up before (or outside) the robot's environment. ``projection.World``
+    implements it."""
+
+    @property
+    def objects(self) -> Mapping[str, str]:
+        """Object name -> type of every object in the world."""
+        ...
+
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        """An object's pose (``LookupError`` for unknown objects)."""
+        ...
+
+    def link_aabb(self, link: str) -> AABB:
+        """A link's bounding box in ``map`` (``LookupError`` for unknown links)."""
+        ...
+
+    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+        """Add an object of a known type at ``pose``; returns its name."""
+        ...
+
+    def remove_object(self, name: str) -> None:
+        """Remove an object (``LookupError`` if unknown)."""
+        ...
+
+    def attach(self, name: str, link: str) -> None:
+        """Attach an object rigidly to a link at their current relative pose."""
+        ...

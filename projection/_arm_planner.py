@@ -1,0 +1,398 @@
+"""The simulated real robot's arm controller: the configuration paths its arms follow.
+
+A ``moving-tcp`` follows the straight tool line (:func:`cartesian_path`), rerouted in
+joint space when that line sweeps through a free object (:func:`reroute_cartesian`);
+a configuration move (park, carry) is routed around free objects (:func:`arm_path`).
+The goal configuration itself is the one the belief world's IK imagined
+(:func:`imagined_goal`), or a collision-aware choice among torso heights
+(:func:`clear_ik`). Projection teleports, so plans never see these paths."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pybullet as pb
+
+from executive import Pose
+from executive.failures import ManipulationPoseUnreachable
+from executive.knowledge import ARM_JOINTS, ARM_PREFIX, tool_frame
+from projection._real_body import ARM_JOINT_VELOCITY, TORSO_VELOCITY, _joint_indices
+from projection._trajectories import along_timed
+from projection._world import World
+
+__all__ = [
+    "CARTESIAN_STEP",
+    "LIFT_HEIGHTS",
+    "PATH_CHECK_SAMPLES",
+    "ArmConfig",
+    "Config",
+    "along_configs",
+    "arm_path",
+    "cartesian_path",
+    "clear_ik",
+    "imagined_goal",
+    "leg_seconds",
+    "reroute_cartesian",
+]
+
+Config = tuple[float, dict[str, tuple[float, ...]]]  # torso height, arm joints by arm
+#: Spacing (m, rad) of the tool-frame waypoints of a Cartesian arm motion.
+CARTESIAN_STEP = (0.02, 0.1)
+#: Samples per straight joint-space segment when checking an arm path for collisions.
+PATH_CHECK_SAMPLES = 12
+#: The raised-arm via configuration (shoulder lifted, elbow bent) the controller routes
+#: through when the straight path would hit a free object.
+RAISED_SHOULDER_LIFT = -0.45
+RAISED_ELBOW_FLEX = -1.9
+
+ArmConfig = dict[str, tuple[float, ...]]
+
+
+def leg_seconds(u: Config, v: Config) -> float:
+    joints = max((abs(q - p) for a in u[1] for p, q in zip(u[1][a], v[1][a])), default=0.0)
+    return max(joints / ARM_JOINT_VELOCITY, abs(v[0] - u[0]) / TORSO_VELOCITY)
+
+
+def along_configs(path: list[Config], legs: list[float], s: float) -> Config:
+    """The configuration at fraction ``s`` of a configuration path's duration."""
+
+    def lerp(u: Config, v: Config, f: float) -> Config:
+        return (
+            u[0] + f * (v[0] - u[0]),
+            {a: tuple(p + f * (q - p) for p, q in zip(u[1][a], v[1][a])) for a in u[1]},
+        )
+
+    return along_timed(path, legs, s, lerp)
+
+
+def cartesian_path(
+    world: World, arms: Sequence[str], goals: Mapping[str, Any], first: Config, last: Config
+) -> list[Config]:
+    """Configurations that move each tool frame along the straight line (position) and
+    the shortest rotation (orientation) to its goal, by IK at small steps seeded with the
+    previous step's solution. If an intermediate step has no IK solution, the path is
+    the straight joint-space one. Leaves the robot wherever the last step put it."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    robot = world.robot_pose().to_transform("base_footprint")
+    lines = {}
+    steps = 1
+    for a in arms:
+        start = world.link_pose(tool_frame(a))
+        goal: Pose = goals[a]
+        if goal.frame == "base_footprint":
+            goal = robot * goal
+        rots = Rotation.from_quat([start.orientation, goal.orientation])
+        lines[a] = (np.array(start.position), np.array(goal.position), Slerp([0.0, 1.0], rots))
+        steps = max(
+            steps,
+            math.ceil(start.distance_to(goal) / CARTESIAN_STEP[0]),
+            math.ceil(start.angle_to(goal) / CARTESIAN_STEP[1]),
+        )
+    path: list[Config] = [first]
+    for k in range(1, steps):
+        f = k / steps
+        targets = {
+            a: Pose(p + f * (g - p), sl([f]).as_quat()[0], "map") for a, (p, g, sl) in lines.items()
+        }
+        try:
+            world.move_tcp(**targets)
+        except ManipulationPoseUnreachable:
+            return [first, last]
+        path.append((world.torso_height, {a: world.arm_joints(a) for a in arms}))
+    path.append(last)
+    return path
+
+
+def _arm_blocked(world: World, arms: Sequence[str]) -> bool:
+    """Whether a link of ``arms`` other than the gripper's (or an object they hold)
+    touches a free object: the gripper may touch the object it reaches for."""
+    free = {n for n in world.objects if n not in world.attachments}
+    prefixes = tuple(f"{ARM_PREFIX[a]}_" for a in arms)
+    for c in world.robot_collisions():
+        if c.body_b not in free:
+            continue
+        link = c.link_a or ""
+        if link.startswith(prefixes) and "gripper" not in link:
+            return True
+    return False
+
+
+def imagined_goal(
+    world: World, belief: World, arms: Sequence[str], args: Mapping[str, Any]
+) -> bool:
+    """Put the true robot's arms and torso at the configuration the *belief* world's IK
+    gives for this goal. The belief robot mirrors the true one, and its IK memo holds the
+    configurations that projection's probes checked for collisions (the checks walk the
+    same waypoints from the same start), so the robot executes what it imagined instead
+    of an arbitrary other IK solution that may lay its forearm among the objects. The
+    belief world is left as it was. False if the belief's IK finds no solution (the
+    caller then solves in the true world)."""
+    snap = belief.snapshot()
+    try:
+        belief.move_tcp(left=args.get("left"), right=args.get("right"))
+        goal = {a: belief.arm_joints(a) for a in arms}
+        height = belief.torso_height
+    except ManipulationPoseUnreachable:
+        return False
+    finally:
+        belief.restore(snap)
+    world.move_torso(height)
+    world.move_joints(**goal)
+    return True
+
+
+def clear_ik(
+    world: World,
+    arms: Sequence[str],
+    args: Mapping[str, Any],
+    torso: float,
+    start: ArmConfig,
+) -> None:
+    """The true world's IK picks the first solution at the first torso height that
+    reaches the goal, with no collision check, and may lay the elbow or forearm among the
+    objects next to the one reached for (projection's IK, seeded differently, checked
+    another configuration). Like a collision-aware IK, try the other torso heights (from
+    the arm's start) when this goal configuration makes an arm link other than the
+    gripper touch a free object, and keep the first that does not; none: the first
+    solution. Leaves the robot at the chosen goal configuration."""
+    if not _arm_blocked(world, arms):
+        return
+    chosen = (world.torso_height, {a: world.arm_joints(a) for a in arms})
+    index = _joint_indices(world)["torso_lift_joint"]
+    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
+    lo, hi = float(info[8]), float(info[9])
+    heights = sorted(
+        {round(lo + (hi - lo) * k / 6, 4) for k in range(7)} - {round(chosen[0], 4)},
+        key=lambda h: abs(h - torso),
+    )
+    for h in heights:
+        world.move_torso(h)
+        world.move_joints(**{a: start[a] for a in arms})
+        try:
+            world.move_tcp(left=args.get("left"), right=args.get("right"))
+        except ManipulationPoseUnreachable:
+            continue
+        if abs(world.torso_height - h) < 1e-6 and not _arm_blocked(world, arms):
+            return
+    world.move_torso(chosen[0])
+    world.move_joints(**chosen[1])
+
+
+def reroute_cartesian(
+    world: World,
+    arms: Sequence[str],
+    path: list[Config],
+    start: ArmConfig,
+    goal: ArmConfig,
+) -> list[ArmConfig] | None:
+    """A joint-space route (:func:`arm_path`, no fallback) replacing the Cartesian
+    ``path`` of a ``moving-tcp`` when that line sweeps the arm through a free object other
+    than those touched at its start or end (the object a reach approaches, the one the
+    hand is next to), e.g. from the carry pose to a pregrasp straight through a
+    neighbouring object; None (keep the line) when it is clear, when the torso moves
+    along it, or when no route is clear either. Leaves the arms and torso wherever the
+    checks put them (the caller resets)."""
+    torso = path[0][0]
+    if abs(path[-1][0] - torso) > 1e-3:
+        return None
+    free = {n for n in world.objects if n not in world.attachments}
+    if not free:
+        return None
+    world.move_torso(torso)
+    world.move_joints(**path[0][1])
+    allowed = _touched(world, free)
+    world.move_joints(**path[-1][1])
+    allowed |= _touched(world, free)
+    others = free - allowed
+    hit = False
+    for _t, config in path[1:-1]:
+        world.move_joints(**config)
+        if _touched(world, others):
+            hit = True
+            break
+    if not hit:
+        return None
+    world.move_joints(**start)
+    return arm_path(world, arms, start, goal, fallback=False)
+
+
+
+def _touched(world: World, free: set[str]) -> set[str]:
+    """The free objects the robot (or what it holds) touches now."""
+    return {c.body_b for c in world.robot_collisions() if c.body_b in free}
+
+
+def _path_hits(
+    world: World,
+    arms: Sequence[str],
+    a: ArmConfig,
+    b: ArmConfig,
+    allowed: set[str] | frozenset[str] = frozenset(),
+) -> bool:
+    """Whether the straight joint-space segment a -> b makes an arm touch a free object
+    (one not attached to anything) other than those in ``allowed``. Leaves the arms at
+    ``b``."""
+    free = {n for n in world.objects if n not in world.attachments} - set(allowed)
+    if not free:
+        return False
+    for k in range(1, PATH_CHECK_SAMPLES + 1):
+        f = k / PATH_CHECK_SAMPLES
+        world.move_joints(
+            **{arm: [p + f * (q - p) for p, q in zip(a[arm], b[arm])] for arm in arms}
+        )
+        if _touched(world, free):
+            return True
+    return False
+
+
+#: Heights (m) by which the controller lifts a tool straight up (at the same torso
+#: height) to route an arm over the free objects around it.
+LIFT_HEIGHTS = (0.1, 0.2, 0.3)
+
+
+def _lifted(world: World, arms: Sequence[str], config: ArmConfig, dz: float) -> ArmConfig | None:
+    """``config`` with each arm's tool frame ``dz`` higher (same orientation, same torso
+    height), by the true world's IK; None when an arm has no such solution. Leaves the
+    arms wherever the IK put them (the caller resets)."""
+    torso = world.torso_height
+    out: ArmConfig = {}
+    for a in arms:
+        world.move_joints(**{a: config[a]})
+        tool = world.link_pose(tool_frame(a))
+        up = Pose((tool.position[0], tool.position[1], tool.position[2] + dz), tool.orientation)
+        try:
+            world.move_tcp(**{a: up})
+        except ManipulationPoseUnreachable:
+            return None
+        if abs(world.torso_height - torso) > 1e-6:
+            world.move_torso(torso)
+            return None
+        out[a] = world.arm_joints(a)
+    return out
+
+
+def arm_path(
+    world: World,
+    arms: Sequence[str],
+    start: ArmConfig,
+    goal: ArmConfig,
+    fallback: bool = True,
+) -> list[ArmConfig] | None:
+    """The joint-space path the simulated controller follows: straight when that touches
+    no free object, else the first clear one of: through a raised-arm via configuration;
+    lifting the tool straight up first (:data:`LIFT_HEIGHTS`), then straight, through the
+    raised via, along the straight tool line to the goal, or down onto the goal from
+    above (see :meth:`_ArmRouter.detours`). A lift that starts in contact with an
+    object (the hand next to an object after a failed grip) may touch that object, and
+    the final descent may touch what the goal touches (a pregrasp at its object).
+    Nothing clear: straight anyway (the arm then pushes what it meets, as an arm without
+    a planner would; ``fallback=False``: None). A real PR2 plans collision-free arm paths;
+    projection teleports, so plans never see this. Leaves the arms wherever the last check
+    put them (the caller resets)."""
+    straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
+    if not _path_hits(world, arms, start, goal):
+        return straight
+    router = _ArmRouter.around(world, arms, start, goal)
+    begin, end = dict(straight[0]), dict(straight[1])
+    via = [begin, router.raised(start), end]
+    if router.clear(via, False, False):
+        return via
+    for dz in LIFT_HEIGHTS:
+        for path, lifts_first, descends_last in router.detours(begin, end, dz):
+            if router.clear(path, lifts_first, descends_last):
+                return path
+    return straight if fallback else None
+
+
+@dataclass
+class _ArmRouter:
+    """The checks and the candidate detours of :func:`arm_path` for one motion of
+    ``arms`` from ``start`` to ``goal``; ``at_start`` / ``at_goal`` are the free objects
+    the robot touches there (a lift may touch the first, a descent the second)."""
+
+    world: World
+    arms: Sequence[str]
+    start: ArmConfig
+    goal: ArmConfig
+    at_start: set[str]
+    at_goal: set[str]
+
+    @classmethod
+    def around(
+        cls, world: World, arms: Sequence[str], start: ArmConfig, goal: ArmConfig
+    ) -> _ArmRouter:
+        free = {n for n in world.objects if n not in world.attachments}
+        world.move_joints(**{a: start[a] for a in arms})
+        at_start = _touched(world, free)
+        world.move_joints(**{a: goal[a] for a in arms})
+        at_goal = _touched(world, free)
+        return cls(world, arms, start, goal, at_start, at_goal)
+
+    def raised(self, config: ArmConfig) -> ArmConfig:
+        """``config`` with each arm's shoulder lifted and elbow bent (the raised via)."""
+        lift = ARM_JOINTS.index("shoulder_lift_joint")
+        elbow = ARM_JOINTS.index("elbow_flex_joint")
+        via: ArmConfig = {}
+        for a in self.arms:
+            q = list(config[a])
+            q[lift], q[elbow] = RAISED_SHOULDER_LIFT, RAISED_ELBOW_FLEX
+            via[a] = tuple(q)
+        return via
+
+    def clear(self, path: list[ArmConfig], lifts_first: bool, descends_last: bool) -> bool:
+        """Whether no segment of ``path`` touches a free object (but the allowed ones)."""
+        world = self.world
+        world.move_joints(**path[0])
+        last = len(path) - 2
+        for i, (u, v) in enumerate(itertools.pairwise(path)):
+            allowed: set[str] = set()
+            if i == 0 and lifts_first:
+                allowed |= self.at_start
+            if i == last and descends_last:
+                allowed |= self.at_goal
+            world.move_joints(**u)
+            if _path_hits(world, self.arms, u, v, allowed):
+                return False
+        return True
+
+    def over(self, up: ArmConfig) -> list[ArmConfig] | None:
+        """From ``up``, the tool frames along straight lines to the goal's (IK at small
+        steps, the torso kept): a lift, then a Cartesian approach."""
+        world, arms, goal = self.world, self.arms, self.goal
+        torso = world.torso_height
+        world.move_joints(**goal)
+        tools = {a: world.link_pose(tool_frame(a)) for a in arms}
+        world.move_joints(**up)
+        line = cartesian_path(world, arms, tools, (torso, up), (torso, goal))
+        world.move_torso(torso)
+        if len(line) <= 2 or any(abs(t - torso) > 1e-6 for t, _c in line):
+            return None
+        return [c for _t, c in line]
+
+    def detours(
+        self, begin: ArmConfig, end: ArmConfig, dz: float
+    ) -> list[tuple[list[ArmConfig], bool, bool]]:
+        """The candidate detours that lift the tool by ``dz`` (at the start, the goal or
+        both), each with whether it lifts first and descends last."""
+        up = _lifted(self.world, self.arms, self.start, dz)
+        down = _lifted(self.world, self.arms, self.goal, dz)
+        candidates: list[tuple[list[ArmConfig], bool, bool]] = []
+        if up is not None:
+            candidates += [
+                ([begin, up, end], True, False),
+                ([begin, up, self.raised(up), end], True, False),
+            ]
+            line = self.over(up)
+            if line is not None:
+                candidates.append(([begin, *line], True, True))
+            if down is not None:
+                candidates.append(([begin, up, down, end], True, True))
+        if down is not None:
+            candidates.append(([begin, self.raised(self.start), down, end], False, True))
+        return candidates

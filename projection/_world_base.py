@@ -1,0 +1,464 @@
+"""The PyBullet client at the heart of a :class:`projection.World`: the robot, the
+kitchen and the floor it loads, the names of their links and joints, frames
+(``map``, ``base_footprint``), the object registry and attachments. The world's other
+concepts (collisions, motions, IK, grippers, perception, containers, snapshots,
+stability) are mixins on this base, in their own modules."""
+
+from __future__ import annotations
+
+import difflib
+import os
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Self
+
+import numpy as np
+import pybullet as pb
+
+from executive import knowledge
+from executive._pose import Pose
+from executive.knowledge import ARM_PREFIX
+from projection import _urdf
+from projection._geometry import Tf as _Tf
+from projection._geometry import Vec as _Vec
+from projection._geometry import yaw_quat as _yaw_quat
+from projection._objects import object_type
+
+__all__ = ["ASSETS", "DEFAULT_TORSO", "FRAMES", "KITCHEN", "ROBOT", "WorldBase"]
+
+ASSETS = Path(__file__).resolve().parent / "assets"
+DEFAULT_TORSO = 0.15  #: torso height of a new world (m): camera at 1.42 m
+FRAMES = ("map", "base_footprint")
+ROBOT = "pr2"
+KITCHEN = "kitchen"
+
+
+
+@dataclass
+class _Obj:
+    type: str
+    body: int
+
+
+def _static_plane(client: int) -> int:
+    """A static, infinite ground plane at z = 0 in ``client``."""
+    shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=client)
+    return int(pb.createMultiBody(0, shape, physicsClientId=client))
+
+
+class WorldBase:
+    """The client, bodies, names, frames, registry and attachments of a
+    :class:`projection.World` (see there)."""
+
+    def __init__(self, seed: int | None = None, gui: bool = False) -> None:
+        self._c = -1
+        self._side = -1
+        if gui:
+            if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+                raise RuntimeError("World(gui=True) needs a display (DISPLAY is not set)")
+            self._c = pb.connect(pb.GUI)
+        else:
+            self._c = pb.connect(pb.DIRECT)
+        if self._c < 0:
+            raise RuntimeError("could not connect to PyBullet")
+        self.rng: np.random.Generator = np.random.default_rng(seed)
+        c = self._c
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        self._kitchen: int = pb.loadURDF(
+            str(ASSETS / "kitchen.urdf"), useFixedBase=True, physicsClientId=c
+        )
+        self._robot: int = pb.loadURDF(
+            str(ASSETS / "pr2.urdf"), useFixedBase=True, physicsClientId=c
+        )
+        # The floor: a static plane at z = 0, so that what falls lands somewhere. It is not
+        # part of the kitchen (costmaps treat kitchen links as obstacles); resting contact
+        # with the robot's base is within COLLISION_TOLERANCE and never counts.
+        self._floor = _static_plane(c)
+        self._links: dict[str, tuple[int, int]] = {}
+        self._kitchen_joints: dict[str, int] = {}
+        self._robot_joints: dict[str, int] = {}
+        self._limits: dict[int, tuple[float, float]] = {}
+        pairs = ((self._robot, self._robot_joints), (self._kitchen, self._kitchen_joints))
+        for body, joints in pairs:
+            base_name = pb.getBodyInfo(body, physicsClientId=c)[0].decode()
+            self._links[base_name] = (body, -1)
+            for i in range(pb.getNumJoints(body, physicsClientId=c)):
+                info = pb.getJointInfo(body, i, physicsClientId=c)
+                self._links[info[12].decode()] = (body, i)
+                if info[2] != pb.JOINT_FIXED:
+                    joints[info[1].decode()] = i
+                    if body == self._robot:
+                        self._limits[i] = (float(info[8]), float(info[9]))
+        self._kitchen_limits = {
+            n: tuple(pb.getJointInfo(self._kitchen, i, physicsClientId=c)[8:10])
+            for n, i in self._kitchen_joints.items()
+        }
+        self._link_names = {v: k for k, v in self._links.items()}
+        self._dofs = sorted(self._limits)  # movable robot joints, IK order
+        self._arm_joints = {
+            arm: [self._robot_joints[f"{p}_{j}"] for j in knowledge.ARM_JOINTS]
+            for arm, p in ARM_PREFIX.items()
+        }
+        self._fingers = {
+            arm: [self._robot_joints[f"{p}_gripper_l_finger_joint"],
+                  self._robot_joints[f"{p}_gripper_r_finger_joint"]]
+            for arm, p in ARM_PREFIX.items()
+        }
+        self._tool = {
+            arm: self._links[f"{p}_gripper_tool_frame"][1] for arm, p in ARM_PREFIX.items()
+        }
+        self._shoulder = {
+            arm: self._links[f"{p}_shoulder_lift_link"][1] for arm, p in ARM_PREFIX.items()
+        }
+        self._gripper_links = {
+            arm: [i for n, (b, i) in self._links.items()
+                  if b == self._robot and n.startswith(f"{p}_gripper")]
+            for arm, p in ARM_PREFIX.items()
+        }
+        self._torso = self._robot_joints["torso_lift_joint"]
+        self._torso_slot = self._dofs.index(self._torso)
+        self._pan = self._robot_joints["head_pan_joint"]
+        self._tilt = self._robot_joints["head_tilt_joint"]
+        self._camera = self._links["head_mount_kinect_rgb_optical_frame"][1]
+        self._objects: dict[str, _Obj] = {}
+        self._bodies: dict[int, str] = {self._robot: ROBOT, self._kitchen: KITCHEN}
+        self._attached: dict[str, tuple[str, _Tf]] = {}
+        self._base: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._closed = False
+        # initial state: one base reset (so the fixed robot is tested against the fixed
+        # kitchen from the start), arms parked, torso default, grippers open, head forward
+        self._reset_base(0.0, 0.0, 0.0)
+        self._set_joints([self._torso], [DEFAULT_TORSO])
+        for arm in ARM_PREFIX:
+            self._set_joints(self._arm_joints[arm], knowledge.arm_configuration("park", arm))
+            self._set_joints(self._fingers[arm], [_urdf.FINGER_MAX] * 2)
+
+    # ------------------------------------------------------------------ lifecycle
+    def close(self) -> None:
+        """Disconnect (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        for cid in (self._side, self._c):
+            if cid >= 0:
+                try:
+                    pb.disconnect(physicsClientId=cid)
+                except pb.error:  # pragma: no cover - already gone
+                    pass
+        self._side = -1
+
+    def __enter__(self) -> Self:
+        self._check()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:  # pragma: no cover - best effort
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def _check(self) -> int:
+        if self._closed:
+            raise RuntimeError("this World is closed")
+        return self._c
+
+    @property
+    def client(self) -> int:
+        """The PyBullet client id (pass it as ``physicsClientId``)."""
+        return self._check()
+
+    @property
+    def robot_body(self) -> int:
+        return self._robot
+
+    @property
+    def kitchen_body(self) -> int:
+        return self._kitchen
+
+    def body_of(self, name: str) -> int:
+        """PyBullet body id of an object, ``"pr2"`` or ``"kitchen"``; unknown ->
+        :class:`LookupError`."""
+        self._check()
+        if name == ROBOT:
+            return self._robot
+        if name == KITCHEN:
+            return self._kitchen
+        return self._obj(name).body
+
+    # ------------------------------------------------------------------ names, poses
+    @property
+    def objects(self) -> Mapping[str, str]:
+        """Object name -> type (a read-only copy)."""
+        self._check()
+        return MappingProxyType({n: o.type for n, o in self._objects.items()})
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(self._links)
+
+    @property
+    def attachments(self) -> Mapping[str, str]:
+        """Attached object name -> link name."""
+        return MappingProxyType({n: link for n, (link, _) in self._attached.items()})
+
+    def _obj(self, name: str) -> _Obj:
+        try:
+            return self._objects[name]
+        except (KeyError, TypeError):
+            raise LookupError(
+                f"no object {name!r} in the world; objects: {', '.join(self._objects) or 'none'}"
+            ) from None
+
+    def _link(self, link: str) -> tuple[int, int]:
+        try:
+            return self._links[link]
+        except (KeyError, TypeError):
+            close = difflib.get_close_matches(str(link), self._links, n=5, cutoff=0.5)
+            hint = f"; did you mean {', '.join(close)}?" if close else ""
+            raise LookupError(f"unknown link {link!r}{hint}") from None
+
+    def _link_tf(self, body: int, index: int) -> _Tf:
+        c = self._c
+        if index < 0:
+            pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+            return tuple(pos), tuple(orn)
+        s = pb.getLinkState(body, index, computeForwardKinematics=1, physicsClientId=c)
+        return tuple(s[4]), tuple(s[5])
+
+    def _base_tf(self) -> _Tf:
+        x, y, yaw = self._base
+        return (x, y, 0.0), _yaw_quat(yaw)
+
+    def _to_map(self, pose: Pose) -> _Tf:
+        if not isinstance(pose, Pose):
+            raise TypeError(f"expected an executive Pose, got {type(pose).__name__}")
+        if pose.frame == "map":
+            return pose.position, pose.orientation
+        if pose.frame == "base_footprint":
+            bp, bq = self._base_tf()
+            pos, orn = pb.multiplyTransforms(bp, bq, pose.position, pose.orientation)
+            return tuple(pos), tuple(orn)
+        raise ValueError(f"unsupported frame {pose.frame!r}; known frames: {', '.join(FRAMES)}")
+
+    def _express(self, tf: _Tf, frame: str) -> Pose:
+        if frame == "map":
+            return Pose(tf[0], tf[1], "map")
+        if frame == "base_footprint":
+            bp, bq = self._base_tf()
+            ip, iq = pb.invertTransform(bp, bq)
+            pos, orn = pb.multiplyTransforms(ip, iq, tf[0], tf[1])
+            return Pose(pos, orn, "base_footprint")
+        raise ValueError(f"unsupported frame {frame!r}; known frames: {', '.join(FRAMES)}")
+
+    def object_pose(self, name: str, frame: str = "map") -> Pose:
+        """An object's pose in ``map`` or ``base_footprint``; unknown -> LookupError."""
+        self._check()
+        pos, orn = pb.getBasePositionAndOrientation(self._obj(name).body, physicsClientId=self._c)
+        return self._express((tuple(pos), tuple(orn)), frame)
+
+    def robot_pose(self) -> Pose:
+        """``base_footprint`` in ``map``."""
+        self._check()
+        p, q = self._base_tf()
+        return Pose(p, q, "map")
+
+    def link_pose(self, link: str, frame: str = "map") -> Pose:
+        """A robot or kitchen link's frame; unknown -> LookupError naming close matches."""
+        self._check()
+        return self._express(self._link_tf(*self._link(link)), frame)
+
+    def link_aabb(self, link: str) -> tuple[_Vec, _Vec]:
+        """The world AABB (min, max) of a link's collision shapes."""
+        self._check()
+        body, index = self._link(link)
+        lo, hi = pb.getAABB(body, index, physicsClientId=self._c)
+        return tuple(lo), tuple(hi)
+
+    def object_aabb(self, name: str) -> tuple[_Vec, _Vec]:
+        self._check()
+        lo, hi = pb.getAABB(self._obj(name).body, -1, physicsClientId=self._c)
+        return tuple(lo), tuple(hi)
+
+    def joint_position(self, joint: str) -> float:
+        """A robot or kitchen joint's position; unknown -> LookupError."""
+        self._check()
+        if joint in self._robot_joints:
+            return float(pb.getJointState(self._robot, self._robot_joints[joint],
+                                          physicsClientId=self._c)[0])
+        if joint in self._kitchen_joints:
+            return float(pb.getJointState(self._kitchen, self._kitchen_joints[joint],
+                                          physicsClientId=self._c)[0])
+        known = [*self._robot_joints, *self._kitchen_joints]
+        close = difflib.get_close_matches(str(joint), known, n=5, cutoff=0.5)
+        raise LookupError(f"unknown joint {joint!r}; close matches: {', '.join(close) or 'none'}")
+
+    def arm_joints(self, arm: str) -> tuple[float, ...]:
+        """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
+        self._check()
+        return self._get_joints(self._arm_joints[self._arm(arm)])
+
+    @property
+    def torso_height(self) -> float:
+        self._check()
+        return self._get_joints([self._torso])[0]
+
+    def gripper_opening(self, arm: str) -> float:
+        """Distance between the finger pads (m) = sum of both finger joints."""
+        self._check()
+        return float(sum(self._get_joints(self._fingers[self._arm(arm)])))
+
+    # ------------------------------------------------------------------ registry
+    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+        """Add an object of a known type at ``pose`` (map or base_footprint), at rest.
+        Duplicate name -> ValueError; unknown type -> LookupError naming the known ones;
+        NaN pose -> ValueError. The world is unchanged on error."""
+        c = self._check()
+        if not isinstance(name, str) or not name or name in (ROBOT, KITCHEN):
+            raise ValueError(f"object name must be a non-empty string other than pr2/kitchen, "
+                             f"got {name!r}")
+        if name in self._objects:
+            raise ValueError(f"an object called {name!r} already exists")
+        otype = object_type(type)
+        pos, orn = self._to_map(pose)
+        body = pb.loadURDF(str(ASSETS / "objects" / otype.urdf_name), pos, orn, physicsClientId=c)
+        self._objects[name] = _Obj(otype.name, body)
+        self._bodies[body] = name
+        return name
+
+    def remove_object(self, name: str) -> None:
+        """Remove an object (and its attachment); unknown -> LookupError."""
+        self._check()
+        obj = self._obj(name)
+        pb.removeBody(obj.body, physicsClientId=self._c)
+        del self._objects[name]
+        del self._bodies[obj.body]
+        self._attached.pop(name, None)
+
+    def set_object_pose(self, name: str, pose: Pose) -> None:
+        """Teleport an object (velocities zeroed); attached objects keep their link."""
+        self._check()
+        obj = self._obj(name)
+        pos, orn = self._to_map(pose)
+        pb.resetBasePositionAndOrientation(obj.body, pos, orn, physicsClientId=self._c)
+        pb.resetBaseVelocity(obj.body, (0, 0, 0), (0, 0, 0), physicsClientId=self._c)
+        if name in self._attached:
+            self._attach_rel(name, self._attached[name][0])
+
+    # ------------------------------------------------------------------ attachments
+    def attach(self, name: str, link: str) -> None:
+        """Attach an object rigidly to a robot or kitchen link (at their current relative
+        pose); an existing attachment is replaced (CRAM detaches from the kitchen first).
+        Unknown object or link -> LookupError."""
+        self._check()
+        self._obj(name)
+        self._link(link)
+        self._attach_rel(name, link)
+
+    def _attach_rel(self, name: str, link: str) -> None:
+        lp, lq = self._link_tf(*self._links[link])
+        op, oq = pb.getBasePositionAndOrientation(self._objects[name].body, physicsClientId=self._c)
+        ip, iq = pb.invertTransform(lp, lq)
+        rel = pb.multiplyTransforms(ip, iq, op, oq)
+        self._attached[name] = (link, (tuple(rel[0]), tuple(rel[1])))
+
+    def detach(self, name: str, settle_steps: int = 10) -> None:
+        """Release an attached object and let it settle for ``settle_steps`` physics steps
+        (1/240 s each). Only that object moves: every other object is put back exactly
+        where it was, and it does not collide with the robot while settling. Not attached ->
+        ValueError; unknown -> LookupError."""
+        c = self._check()
+        obj = self._obj(name)
+        if name not in self._attached:
+            raise ValueError(f"object {name!r} is not attached; attached: "
+                             f"{', '.join(self._attached) or 'none'}")
+        if settle_steps < 0:
+            raise ValueError(f"settle_steps must be >= 0, got {settle_steps}")
+        del self._attached[name]
+        pb.resetBaseVelocity(obj.body, (0, 0, 0), (0, 0, 0), physicsClientId=c)
+        if settle_steps:
+            self._settle([name], settle_steps)
+
+    def _settle(self, names: Sequence[str], steps: int) -> None:
+        c = self._c
+        movers = {self._objects[n].body for n in names}
+        frozen = [
+            (o.body, pb.getBasePositionAndOrientation(o.body, physicsClientId=c))
+            for o in self._objects.values()
+            if o.body not in movers
+        ]
+        robot_q = self._get_joints(self._dofs)
+        kitchen_idx = list(self._kitchen_joints.values())
+        kitchen_q = self._get_joints(kitchen_idx, self._kitchen)
+        robot_links = [-1, *range(pb.getNumJoints(self._robot, physicsClientId=c))]
+        for b in movers:
+            for li in robot_links:
+                pb.setCollisionFilterPair(self._robot, b, li, -1, 0, physicsClientId=c)
+        try:
+            for _ in range(steps):
+                pb.stepSimulation(physicsClientId=c)
+        finally:
+            for b in movers:
+                for li in robot_links:
+                    pb.setCollisionFilterPair(self._robot, b, li, -1, 1, physicsClientId=c)
+            for body, (pos, orn) in frozen:
+                pb.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=c)
+                pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=c)
+            # joints are not held by motors here: put them back exactly
+            self._set_joints(self._dofs, robot_q)
+            self._set_joints(kitchen_idx, kitchen_q, self._kitchen)
+        self._update_attached()
+
+    def _update_attached(self, owner: int | None = None) -> None:
+        c = self._c
+        for name, (link, (rp, rq)) in self._attached.items():
+            body, index = self._links[link]
+            if owner is not None and body != owner:
+                continue
+            lp, lq = self._link_tf(body, index)
+            pos, orn = pb.multiplyTransforms(lp, lq, rp, rq)
+            ob = self._objects[name].body
+            pb.resetBasePositionAndOrientation(ob, pos, orn, physicsClientId=c)
+            pb.resetBaseVelocity(ob, (0, 0, 0), (0, 0, 0), physicsClientId=c)
+
+    # ------------------------------------------------------------------ joints helpers
+    def _get_joints(self, indices: Sequence[int], body: int | None = None) -> tuple[float, ...]:
+        states = pb.getJointStates(
+            self._robot if body is None else body, indices, physicsClientId=self._c
+        )
+        return tuple(float(s[0]) for s in states)
+
+    def _set_joints(self, indices: Sequence[int], values: Sequence[float],
+                    body: int | None = None) -> None:
+        b = self._robot if body is None else body
+        for i, v in zip(indices, values):
+            pb.resetJointState(b, i, v, 0.0, physicsClientId=self._c)
+
+    def _reset_base(self, x: float, y: float, yaw: float) -> None:
+        pb.resetBasePositionAndOrientation(
+            self._robot, (x, y, 0.0), _yaw_quat(yaw), physicsClientId=self._c
+        )
+        self._base = (x, y, yaw)
+
+    @staticmethod
+    def _arm(arm: str) -> str:
+        if arm not in ARM_PREFIX:
+            raise ValueError(f"unknown arm {arm!r}; known arms: left, right")
+        return arm
+
+    def _arms(self, arm: str | Sequence[str]) -> list[str]:
+        arms = [arm] if isinstance(arm, str) else list(arm)
+        if not arms:
+            raise ValueError("no arm given; known arms: left, right")
+        return [self._arm(a) for a in arms]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.objects)
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else f"client {self._c}, {len(self._objects)} objects"
+        return f"<World {state}>"

@@ -1,0 +1,95 @@
+"""The robot's teleporting motions in a :class:`projection.World` (CRAM's projection
+``drive``, ``move-torso``, ``move-joints``, ``park-arms``): each checks its goal and
+leaves the world unchanged on failure."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import pybullet as pb
+
+from executive import knowledge
+from executive._pose import Pose
+from executive.failures import NavigationPoseUnreachable, TorsoGoalNotReached
+from projection._geometry import finite as _finite
+from projection._geometry import quat_yaw as _quat_yaw
+from projection._world_collisions import Collisions
+
+__all__ = ["BodyMotions"]
+
+
+class BodyMotions(Collisions):
+    """Base, torso and arm-joint motions (a mixin of :class:`projection.World`)."""
+
+    def drive(self, pose: Pose) -> None:
+        """Teleport the base to ``pose`` (map or base_footprint; z, roll and pitch are
+        ignored); attached objects follow. If the robot or an object it carries then
+        collides with anything else, the previous pose is restored and
+        :class:`NavigationPoseUnreachable` (``location=pose``) is raised."""
+        self._check()
+        pos, orn = self._to_map(pose)
+        c = self._c
+        prev = self._base
+        carried = []
+        if self._attached:
+            carried = [(b, pb.getBasePositionAndOrientation(b, physicsClientId=c))
+                       for b in (self._objects[n].body for n in self._attached)]
+        self._reset_base(pos[0], pos[1], _quat_yaw(orn))
+        if carried:
+            self._update_attached(self._robot)
+        pb.performCollisionDetection(physicsClientId=c)
+        if self._collisions(set(), first_only=True):
+            self._reset_base(*prev)
+            for b, (p, q) in carried:  # exactly, not via the float32 link states
+                pb.resetBasePositionAndOrientation(b, p, q, physicsClientId=c)
+            raise NavigationPoseUnreachable(location=pose)
+
+    # ------------------------------------------------------------------ torso, arms
+    def move_torso(self, height: float) -> None:
+        """Set ``torso_lift_joint``. A goal outside [0, 0.33] by more than 1e-4 ->
+        :class:`TorsoGoalNotReached` (``torso=height``), world unchanged."""
+        self._check()
+        (h,) = _finite([height], "torso height")
+        lo, hi = self._limits[self._torso]
+        clamped = min(max(h, lo), hi)
+        if abs(clamped - h) > 1e-4:
+            raise TorsoGoalNotReached(
+                f"torso height {h:.4f} outside [{lo}, {hi}]", torso=height
+            )
+        self._set_joints([self._torso], [clamped])
+        self._update_attached(self._robot)
+
+    def move_joints(self, left: Sequence[float] | None = None,
+                    right: Sequence[float] | None = None) -> None:
+        """Set the 7 arm joints of the given sides. Wrong length, non-finite values or
+        values outside the joint limits -> ValueError naming them; world unchanged."""
+        self._check()
+        goals: list[tuple[list[int], tuple[float, ...]]] = []
+        for arm, values in (("left", left), ("right", right)):
+            if values is None:
+                continue
+            vals = _finite(values, f"{arm} arm joints")
+            if len(vals) != 7:
+                raise ValueError(f"{arm} arm needs 7 joint values "
+                                 f"({', '.join(knowledge.ARM_JOINTS)}), got {len(vals)}")
+            indices = self._arm_joints[arm]
+            for i, v, jname in zip(indices, vals, knowledge.ARM_JOINTS):
+                lo, hi = self._limits[i]
+                if not lo - 1e-6 <= v <= hi + 1e-6:
+                    raise ValueError(f"{arm} {jname} = {v:.4f} outside [{lo}, {hi}]")
+            goals.append((indices, vals))
+        for indices, vals in goals:
+            self._set_joints(indices, vals)
+        self._update_attached(self._robot)
+
+    def set_arm_configuration(self, name: str, arms: str | Sequence[str] = ("left", "right")
+                              ) -> None:
+        """Put arms into a named configuration ("park", "carry"); unknown -> LookupError."""
+        self._check()
+        chosen = self._arms(arms)
+        values = {a: knowledge.arm_configuration(name, a) for a in chosen}
+        self.move_joints(values.get("left"), values.get("right"))
+
+    def park_arms(self, configuration: str = "park") -> None:
+        """Both arms to ``configuration`` (CRAM's park-arms; CRAM defaults to carrying)."""
+        self.set_arm_configuration(configuration)
