@@ -52,6 +52,7 @@ from executive import (
     an,
     current_environment,
     kitchen,
+    knowledge,
     perform,
     retry_scope,
     rule,
@@ -115,12 +116,34 @@ def _object(d: Designator) -> ObjectDesignator:
 @cpl.plan(name="go-without-collisions")
 async def go_without_collisions(location: LocationDesignator) -> None:
     """Park the arms (carry), pick a collision-free sample of ``location`` (up to 30,
-    :func:`check_navigating_collisions`), and go there; navigation low-level failures of
-    the going are ignored. Raises ``NavigationGoalInCollision`` (also for designator
-    errors)."""
+    :func:`check_navigating_collisions`), and go there; a navigation low-level failure
+    (the base stopped short: a fault, or a collision on the way) drives again from where
+    it stopped (:data:`NAVIGATION_RETRIES`). Raises ``NavigationGoalInCollision`` (also
+    for designator errors, and when the goal was never reached).
+
+    Deliberate difference from CRAM, which ignored the going's failures: the plan went on
+    from wherever the base had stopped (e.g. short of the island, where every placing
+    then failed IK), and the caller's relocation scope, which only retries on
+    ``navigation-goal-in-collision``, never tried its next base pose."""
     await park_arms()
     checked = check_navigating_collisions(location)
-    await perform_ignoring(an.action(type="going", target=checked), NavigationLowLevelFailure)
+
+    @retry_scope(
+        NavigationLowLevelFailure,
+        None,
+        CountedRetries(NAVIGATION_RETRIES, "navigation"),
+        rethrow=lambda failure: NavigationGoalInCollision(
+            f"did not get to {checked.short()}: {failure}"
+        ),
+    )
+    async def go() -> None:
+        await perform(an.action(type="going", target=checked))
+
+    await go()
+
+
+#: How often ``go-without-collisions`` drives again after the base stopped short.
+NAVIGATION_RETRIES = 2
 
 
 @rule("action", "navigating")
@@ -206,6 +229,7 @@ async def search_for_object(
         spot = spots.current.reference()
         view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
         await perform(an.action(type="navigating", location=view))
+        await arms_out_of_view()
         await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
         # v0.8.1's torso retry: a taller object in front may hide the one sought from the
@@ -226,6 +250,18 @@ async def search_for_object(
 
     result: ObjectDesignator = await translating_designator_errors(look_there, nowhere)
     return result
+
+
+async def arms_out_of_view() -> None:
+    """Before looking for an object: both arms to ``park`` (at the sides) if they hold
+    nothing. Deliberate difference from CRAM, which looked with the arms in ``carry``:
+    from the counter the palm in ``carry`` hides objects in the drawer and low on the
+    counter (the spoon's visibility was 0.33 in ``carry`` and 1.0 in ``park`` from the
+    same base pose)."""
+    world = current_environment().world
+    if any(world.object_in_hand(arm) for arm in knowledge.ARMS):
+        return
+    await park_arms("park")
 
 
 async def _look_from_higher(spot: Pose) -> None:

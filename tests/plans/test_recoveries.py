@@ -203,3 +203,59 @@ def test_a_failed_grip_backs_out_before_the_failure_propagates(cup_world):
     assert moves[3:] == list(reversed(reach))
     opened = [m for m in robot.calls("grippers") if m.type == "moving-gripper-joint"]
     assert len(opened) == 2  # opened to reach, opened again to back out
+
+
+# --------------------------------------------------------- navigation that did not get there
+def test_a_going_that_stopped_short_is_driven_again(cup_world):
+    from executive import NavigationGoalNotReached, Pose, a
+
+    robot = make_robot(cup_world, navigation={1: NavigationGoalNotReached})
+
+    async def go():
+        with retry_ledger() as ledger:
+            await perform(an.action(type="navigating", location=a.location(pose=Pose((1, 0, 0)))))
+            return dict(ledger)
+
+    assert robot.run(go) == {"navigation": 1}
+    assert len(robot.calls("navigation")) == 2
+    assert cup_world.robot_pose().isclose(Pose((1, 0, 0)))
+
+
+def test_a_goal_never_reached_is_a_navigation_high_level_failure(cup_world):
+    from executive import NavigationGoalInCollision, NavigationGoalNotReached, Pose, a
+
+    robot = make_robot(cup_world, navigation=dict.fromkeys((1, 2, 3), NavigationGoalNotReached))
+    with pytest.raises(NavigationGoalInCollision, match="did not get to"):
+        robot.run(perform, an.action(type="navigating", location=a.location(pose=Pose((1, 0, 0)))))
+    assert len(robot.calls("navigation")) == 3
+
+
+def test_fetching_relocates_when_its_base_pose_is_never_reached(cup_world):
+    """CRAM ignored the navigation failure and picked from wherever the base stopped; now
+    the relocation scope goes to the next base pose."""
+    from executive import NavigationGoalNotReached
+
+    robot = make_robot(cup_world, navigation=dict.fromkeys((1, 2, 3), NavigationGoalNotReached))
+
+    async def go():
+        with retry_ledger() as ledger:
+            await perform(an.action(type="fetching", object=perceived_cup(cup_world)))
+            return dict(ledger)
+
+    ledger = robot.run(go)
+    assert ledger["relocations"] == 1 and ledger["navigation"] == 2
+    assert cup_world.object_in_hand("right") == "cup-1"
+
+
+# ------------------------------------------------------------- arms out of the view
+def test_searching_looks_with_the_arms_parked_at_the_sides(cup_world):
+    from executive import a, knowledge
+
+    robot = make_robot(cup_world)
+    robot.run(
+        perform,
+        an.action(type="searching", object=an.object(type="cup"), location=a.location(spots=3)),
+    )
+    joints = [m.reference().arguments for m in robot.calls("arms") if m.type == "moving-arm-joints"]
+    assert joints[-1]["left"] == knowledge.arm_configuration("park", "left")
+    assert joints[-1]["right"] == knowledge.arm_configuration("park", "right")
