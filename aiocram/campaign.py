@@ -2,20 +2,27 @@
 (seed, fault rate), with and without projection reasoning.
 
 Each job is independent and seeded (:func:`aiocram.demo.run_demo_once`), so jobs can run
-anywhere: the ``local`` backend uses a process pool on this machine; the ``dask`` backend
-sends the very same jobs to a ``dask.distributed`` cluster (a ``LocalCluster`` by default,
-or the scheduler at ``--scheduler ADDRESS``), so a user who outgrows one machine adds
-workers, not code.
+anywhere: the ``local`` backend runs them on worker processes of this machine; the
+``dask`` backend sends the very same jobs to a ``dask.distributed`` cluster (a
+``LocalCluster`` by default, or the scheduler at ``--scheduler ADDRESS``), so a user who
+outgrows one machine adds workers, not code.
 
-Per fault rate it reports object success rate, retries used by kind, base distance driven,
-time, and the invariants that must hold in every run (no task alive after the run, no
-object lost or left attached, the drawer closed, the arms parked). Results go to
-``OUT/campaign.json`` and PNG plots (success rate and distance against fault rate, with and
-without projection).
+Every figure is measured on the true world (:mod:`aiocram.truth`): per fault rate, the
+objects *delivered* (upright on the island near where the plan placed them), what the
+plans *claimed*, the *phantoms* (claimed, not delivered), where the others ended up,
+retries by kind, base distance, time, and the invariants that must hold in every run
+(:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why.
+
+The harness keeps every finished run: each run's record is appended to ``OUT/runs.jsonl``
+as it ends; a local worker that dies (killed, crashed) is recorded as an ``error`` run of
+its job, replaced, and the campaign goes on; Ctrl-C stops the workers, writes the partial
+summary (``"partial": true``) and says so. All arguments are checked before any job starts
+or any file is written. The summary goes to ``OUT/campaign.json`` with PNG plots, and to
+the console as a table that fits 80 columns (the retries are in the JSON).
 
 Exit status: 0 when every invariant held in every run, 1 when some run violated one (the
-violations are in the report), 2 for bad arguments, 3 when the harness itself crashed in
-some run.
+violations are in the report), 2 for bad arguments, 3 when the harness itself failed in
+some run (a crash or a dead worker), 130 when interrupted.
 """
 
 from __future__ import annotations

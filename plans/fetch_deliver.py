@@ -22,6 +22,7 @@ Deliberate fix: ``deliver``'s outer retry reads the *advanced* target (HEAD read
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -94,6 +95,8 @@ __all__ = [
     "turn_towards",
 ]
 
+log = logging.getLogger(__name__)
+
 #: The robot name in ``reachable-for`` / ``visible-for`` location designators.
 ROBOT = "pr2"
 
@@ -118,8 +121,9 @@ async def go_without_collisions(location: LocationDesignator) -> None:
     """Park the arms (carry), pick a collision-free sample of ``location`` (up to 30,
     :func:`check_navigating_collisions`), and go there; a navigation low-level failure
     (the base stopped short: a fault, or a collision on the way) drives again from where
-    it stopped (:data:`NAVIGATION_RETRIES`). Raises ``NavigationGoalInCollision`` (also
-    for designator errors, and when the goal was never reached).
+    it stopped (:data:`NAVIGATION_RETRIES`), unless it stopped within
+    :data:`NAVIGATION_TOLERANCE` of the goal (logged). Raises ``NavigationGoalInCollision``
+    (also for designator errors, and when the goal was never reached).
 
     Deliberate difference from CRAM, which ignored the going's failures: the plan went on
     from wherever the base had stopped (e.g. short of the island, where every placing
@@ -127,6 +131,7 @@ async def go_without_collisions(location: LocationDesignator) -> None:
     ``navigation-goal-in-collision``, never tried its next base pose."""
     await park_arms()
     checked = check_navigating_collisions(location)
+    goal: Pose = to_map(checked.reference())
 
     @retry_scope(
         NavigationLowLevelFailure,
@@ -137,13 +142,30 @@ async def go_without_collisions(location: LocationDesignator) -> None:
         ),
     )
     async def go() -> None:
-        await perform(an.action(type="going", target=checked))
+        try:
+            await perform(an.action(type="going", target=checked))
+        except NavigationLowLevelFailure as failure:
+            if not _close_enough(goal):
+                raise
+            log.info("the base stopped short but close enough to %r: %s", goal, failure)
 
     await go()
 
 
 #: How often ``go-without-collisions`` drives again after the base stopped short.
-NAVIGATION_RETRIES = 2
+NAVIGATION_RETRIES = 1
+#: How near (m, rad) a base that stopped short must be to its goal to count as there.
+NAVIGATION_TOLERANCE = (0.05, 0.1)
+
+
+def _close_enough(goal: Pose) -> bool:
+    robot = current_environment().world.robot_pose()
+    d, angle = NAVIGATION_TOLERANCE
+    return robot.distance_to(goal) <= d and abs(_wrap(robot.yaw - goal.yaw)) <= angle
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 @rule("action", "navigating")
