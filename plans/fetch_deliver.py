@@ -360,6 +360,7 @@ async def fetch(
             await pick()
 
         await from_here()
+        await back_off()
         await park_arms()
         return object_designator.current()
 
@@ -511,6 +512,7 @@ async def deliver(
     # CRAM: designator-error -> object-undeliverable (also one raised while advancing a
     # target that has no solution at all, e.g. an empty costmap)
     await translating_designator_errors(attempt, undeliverable)
+    await back_off()
 
 
 #: The failures after which ``deliver`` goes to the next base pose.
@@ -521,6 +523,31 @@ DELIVER_RELOCATION_FAILURES = (
 )
 #: The failures after which ``deliver`` tries the next target from where it stands.
 DELIVER_TARGET_FAILURES = (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable)
+
+
+#: How far (m) the base backs off from a counter before the arms are parked.
+BACK_OFF = 0.25
+
+
+@cpl.plan(name="back-off")
+async def back_off(distance: float = BACK_OFF) -> None:
+    """Retreat before parking the arms next to a counter: drive the base ``distance``
+    straight back if the belief's probe says the robot (with what it holds) stands free
+    there; the going's failures are ignored (logged: the arms are parked wherever the
+    base stopped). Deliberate addition: CRAM parked (``carry``) right where it had picked
+    or placed, and the park swept the arm and the held object through the neighbours on
+    the counter (the cereal box toppled off the sink counter, a delivered cup off the
+    island)."""
+    world = current_environment().world
+    goal = to_map(Pose((-distance, 0.0, 0.0), frame="base_footprint"))
+    probe = world.probe_base_pose(goal)
+    if not probe.ok:
+        log.info("no backing off: %s", probe.failure)
+        return
+    try:
+        await perform(an.action(type="going", target=a.location(pose=goal)))
+    except NavigationLowLevelFailure as failure:
+        log.info("backing off stopped short: %s", failure)
 
 
 def _held_type(obj: ObjectDesignator) -> str:
