@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import cpl
+from aiocram.truth import TruthObserver, TruthReport
 
 if TYPE_CHECKING:  # projection (PyBullet) is imported when a demo runs, not with this module
     from projection import World
@@ -35,10 +36,6 @@ __all__ = ["DEFAULT_OBJECTS", "DemoConfig", "DemoReport", "add_parser", "run_dem
 
 DEFAULT_OBJECTS = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
 
-#: Joint-space tolerance (rad) for "the arms are parked".
-PARK_TOLERANCE = 0.05
-#: How far (m) an object may be from where it started and still count as "at its start".
-START_TOLERANCE = 0.15
 
 
 class DemoConfigError(ValueError):
@@ -100,8 +97,9 @@ class DemoConfig:
 
 @dataclass
 class DemoReport:
-    """What happened: per-object outcomes, the invariants checked on the true world, and
-    times (simulated robot seconds; wall seconds spent imagining)."""
+    """What happened: per-object outcomes as the plan reported them, the truth measured
+    on the true world (:class:`aiocram.truth.TruthReport`: delivered objects, phantoms,
+    the invariants), and times (simulated robot seconds; wall seconds spent imagining)."""
 
     config: DemoConfig
     outcomes: dict[str, Any]
@@ -118,16 +116,26 @@ class DemoReport:
     root: Any = None
     #: Evaporated tasks whose cleanup raised (``cpl.cleanup_failures``; each is logged).
     cleanup_failures: int = 0
+    #: What the true world says after the run (``None`` if it was never measured).
+    truth: TruthReport | None = None
 
     @property
     def delivered(self) -> int:
+        """Objects delivered, measured on the true world."""
+        return 0 if self.truth is None else self.truth.delivered
+
+    @property
+    def claimed(self) -> int:
+        """Objects the plan reported placed."""
         return sum(1 for o in self.outcomes.values() if o.success)
 
     def to_json(self) -> dict[str, Any]:
         objects = {}
         for name, o in self.outcomes.items():
+            truth = None if self.truth is None else self.truth.objects.get(o.name)
             objects[name] = {
-                "success": o.success,
+                **({} if truth is None else truth.to_json()),
+                "claimed": o.success,
                 "failure": None if o.failure is None else type(o.failure).__name__,
                 "retries": dict(o.retries),
                 "distance_driven": o.distance,
@@ -142,6 +150,9 @@ class DemoReport:
             "real_time_s": self.sim_time_s,
             "invariants": dict(self.invariants),
             "violations": dict(self.violations),
+            "cleanup_intervened": (
+                [] if self.truth is None else list(self.truth.cleanup_intervened)
+            ),
         }
 
 
@@ -203,71 +214,6 @@ def _faults(config: DemoConfig) -> Any:
     if "seed=" not in config.faults:
         profile = replace(profile, seed=config.seed)
     return profile
-
-
-def _invariants(
-    true_world: Any, spawned: dict[str, Any], watch: _Watch
-) -> tuple[dict[str, bool], dict[str, str]]:
-    """Check, on the true world after the run: no task alive, every object on the island,
-    at its start, or on the sink counter (none fallen or lost), nothing attached to the
-    robot, the drawer closed, the arms parked."""
-    from executive.knowledge import arm_configuration
-
-    ok: dict[str, bool] = {}
-    why: dict[str, str] = {}
-    alive = [t for t in watch.tasks if t.alive]
-    ok["no_task_alive"] = not alive
-    if alive:
-        why["no_task_alive"] = ", ".join("/".join(t.path) for t in alive[:5])
-    held = [n for n, link in true_world.attachments.items() if not link.startswith("sink_area")]
-    ok["nothing_attached"] = not held
-    if held:
-        why["nothing_attached"] = f"still attached: {held}"
-    lost = []
-    for name, start in spawned.items():
-        if name not in true_world.objects:
-            lost.append(f"{name} is gone")
-            continue
-        pose = true_world.object_pose(name)
-        if _on_surface(true_world, pose, "kitchen_island_surface"):
-            continue
-        if pose.distance_to(start) <= START_TOLERANCE:
-            continue
-        if _on_surface(true_world, pose, "sink_area_surface") or _in_drawer(true_world, pose):
-            continue
-        lost.append(f"{name} at {tuple(round(v, 2) for v in pose.position)}")
-    ok["no_object_lost"] = not lost
-    if lost:
-        why["no_object_lost"] = "; ".join(lost)
-    drawer = true_world.joint_position("sink_area_left_upper_drawer_main_joint")
-    ok["drawer_closed"] = abs(drawer) < 0.01
-    if not ok["drawer_closed"]:
-        why["drawer_closed"] = f"drawer open {drawer:.3f} m"
-    park = {arm: arm_configuration("park", arm) for arm in ("left", "right")}
-    off = []
-    for arm, target in park.items():
-        now = true_world.arm_joints(arm)
-        err = max(abs(a - b) for a, b in zip(now, target))
-        if err > PARK_TOLERANCE:
-            off.append(f"{arm} arm {err:.2f} rad from park")
-    ok["arms_parked"] = not off
-    if off:
-        why["arms_parked"] = "; ".join(off)
-    return ok, why
-
-
-def _on_surface(world: Any, pose: Any, link: str) -> bool:
-    (x0, y0, _z0), (x1, y1, z1) = world.link_aabb(link)
-    x, y, z = pose.position
-    on: bool = x0 <= x <= x1 and y0 <= y <= y1 and z1 - 0.01 <= z <= z1 + 0.35
-    return on
-
-
-def _in_drawer(world: Any, pose: Any) -> bool:
-    (x0, y0, z0), (x1, y1, z1) = world.link_aabb("sink_area_left_upper_drawer_main")
-    x, y, z = pose.position
-    inside: bool = x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1 + 0.05
-    return inside
 
 
 def _transport_times(root: cpl.Task, watch: _Watch) -> tuple[dict[str, float], dict[str, float]]:
@@ -346,6 +292,7 @@ def run_demo(
     belief_world: World | None = None
     outcomes: dict[str, Any] = {}
     engine_box: list[Any] = []
+    observer: TruthObserver | None = None  # made with the worlds, before the run
 
     async def main() -> None:
         from executive import current_environment
@@ -361,9 +308,11 @@ def run_demo(
         rules = location_rules(belief_world)
         if outputs is not None:  # note every candidate pose, for the costmap pictures
             rules = costmaps.recording(rules)
+        assert observer is not None
         async with with_real_robot(
             true_world, belief_world, faults=faults, speed=config.speed, rules=rules
-        ):
+        ) as env:
+            observer.subscribe(env)
             engine_box.append(costmaps_of(current_environment().rules))
             plan = table_setting(
                 true_world,
@@ -374,21 +323,24 @@ def run_demo(
                 projection_runs=config.runs,
                 spawn=False,
                 outcomes=outcomes,
+                before_cleanup=observer.before_cleanup,
             )
             if config.live:
                 async with DemoView(root, progress, console=console, refresh_per_second=4):
                     await plan
             else:
                 await plan
+            observer.body_returned()
 
     t0 = time.perf_counter()
     try:
         true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
+        observer = TruthObserver(true_world, belief_world, lambda: watch.tasks)
         camera = CameraRecorder(true_world)
         costmaps = CostmapRecorder(belief_world)
         if outputs is not None:  # they record for the pictures only
             instruments += [camera, costmaps]
-        spawned = _set_up_scene(true_world, config)
+        _set_up_scene(true_world, config)
         root_box: list[cpl.Task] = []
 
         class _Root(cpl.Instrument):
@@ -405,15 +357,17 @@ def run_demo(
         root = root_box[0]
         interrupted = interrupts is not None and interrupts.interrupted
         sim = (root.end_time or 0.0) - (root.start_time or 0.0)
-        invariants, violations = _invariants(true_world, spawned, watch)
+        truth = observer.measure(
+            {o.name: o.success for o in outcomes.values()}, interrupted=interrupted
+        )
         real_sim, imagined = _transport_times(root, watch)
         if outputs is not None:
             _write_pictures(outputs, true_world, camera, costmaps, engine_box)
         report = DemoReport(
             config,
             outcomes,
-            invariants,
-            violations,
+            truth.invariants,
+            truth.violations,
             sim,
             wall,
             imagined,
@@ -422,6 +376,7 @@ def run_demo(
             interrupted=interrupted,
             root=root,
             cleanup_failures=len(cpl.cleanup_failures(root)),
+            truth=truth,
         )
     finally:
         restore_logging()
@@ -561,8 +516,11 @@ def _print_report(report: DemoReport, console: Any) -> None:
     for header in ("dist (m)", "sim (s)", "imag (s)"):
         table.add_column(header, justify="right", no_wrap=True, width=len(header))
     for name, o in report.outcomes.items():
-        if o.success:
-            outcome = "[green]placed[/]"
+        truth = None if report.truth is None else report.truth.objects.get(o.name)
+        if truth is not None and truth.delivered:
+            outcome = "[green]delivered[/]"
+        elif truth is not None and truth.phantom:
+            outcome = f"[red]phantom ({truth.where})[/]"
         elif o.failure is None:
             outcome = "[grey50]interrupted[/]"
         else:
@@ -589,9 +547,12 @@ def _print_report(report: DemoReport, console: Any) -> None:
             "evaporated and its cleanup ran"
         )
     console.print(
-        f"{report.delivered}/{n} objects placed; simulated {report.sim_time_s:.1f} s in "
+        f"{report.delivered}/{n} objects delivered (true world; the plan claimed "
+        f"{report.claimed}); simulated {report.sim_time_s:.1f} s in "
         f"{report.wall_time_s:.1f} s wall time"
     )
+    if report.truth is not None and report.truth.cleanup_intervened:
+        console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     if report.cleanup_failures:
         where = " (each in plans.log)" if report.files else ""
         console.print(

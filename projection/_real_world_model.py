@@ -74,6 +74,11 @@ class RealWorldModel:
     def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
         return self.belief.container_state(link_or_joint)
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """The finger opening of ``arm``: the belief robot mirrors the true joint states
+        (as a real robot's belief has them from its joint-state topic)."""
+        return self.belief.gripper_opening(arm)
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         return self.belief.link_aabb(link)
 

@@ -121,6 +121,11 @@ class ProjectedWorldModel:
         """``(position, lower, upper)`` of a container joint (see ``World``)."""
         return self.world.container_state(link_or_joint)
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
+        finger joints; a real robot's belief has them from its joint states)."""
+        return self.world.gripper_opening(_arm(arm))
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """A robot or kitchen link's axis-aligned bounding box in map, ``(min, max)``;
         unknown links raise LookupError."""

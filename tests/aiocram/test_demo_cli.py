@@ -107,7 +107,7 @@ def test_demo_with_one_object_writes_everything(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "pybullet build time" not in proc.stderr
     text = proc.stdout
-    assert "1/1 objects placed" in text
+    assert "1/1 objects delivered" in text
     assert re.search(r"^✔ demo \[top-level\]", text, re.M), text
     assert f"the whole tree: aiocram show --collapse {out}/log.jsonl\n" in text
     names = sorted(p.name for p in out.iterdir())
@@ -140,7 +140,7 @@ def test_objects_in_any_order(tmp_path):
         "demo", "--objects", "cup", "bowl", "--seed", "1", "--no-live", "--out", str(tmp_path)
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "2/2 objects placed" in proc.stdout
+    assert "2/2 objects delivered" in proc.stdout
 
 
 def _start_demo(out: Path) -> subprocess.Popen[str]:
@@ -325,7 +325,7 @@ def test_cleanup_failures_are_in_the_summary_and_plans_log(tmp_path, monkeypatch
     monkeypatch.setattr(plans.demo, "table_setting", plan_with_broken_cleanup)
     code = main(["demo", "--objects", "cup", "--no-live", "--out", str(tmp_path)])
     out = capsys.readouterr().out
-    assert code == 0
+    assert code == 1  # the stand-in plan neither delivers the cup nor reaches the cleanup
     assert "1 cleanup failure(s)" in out
     log = (tmp_path / "plans.log").read_text()
     assert "the cleanup of evaporated task demo/par/slow raised RuntimeError" in log
