@@ -315,3 +315,30 @@ def test_a_goal_evaporated_while_queued_never_reaches_the_driver(cpl_run: Any) -
 
     assert cpl_run(main, clock=SYSTEM()) == ("done", cpl.Status.EVAPORATED)
     assert log.count("driver started") == 1
+
+
+def test_example_08_runs_and_the_monitor_stops_the_blocking_driver() -> None:
+    """examples/08_blocking_driver.py, as a user runs it (own process, time-out)."""
+    import os
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), *sys.path])}
+    proc = subprocess.run(
+        [sys.executable, "-W", "error", str(root / "examples" / "08_blocking_driver.py")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert re.fullmatch(r"monitor: base at x=1\.\d, stop it", lines[0]), lines
+    assert lines[1:3] == [
+        "driver stopped short of x=5: True, braked: True",
+        "loop ticks while the driver blocked: many",
+    ]
+    assert "~ navigation - evaporated" in proc.stdout
