@@ -137,7 +137,7 @@ def run_retries(name: str, failures: int) -> cpl.TaskNode:
             raise cpl.PlanFailure(f"attempt {calls}")
         return "ok"
 
-    async def main() -> str:
+    async def main() -> Any:
         return await cpl.with_retry(lambda: cpl.tag("step", step()), on=cpl.PlanFailure, counter=5)
 
     cpl.run(main, name=name, clock=MockClock())

@@ -528,12 +528,12 @@ def test_anyio_event_sets_a_fluent(cpl_run: Any) -> None:
 def test_memory_object_stream_feeds_a_fluent_and_evaporation_stops_the_pump(
     cpl_run: Any,
 ) -> None:
-    seen: list[int] = []
+    seen: list[float] = []
     closed: list[str] = []
 
     async def main() -> Any:
         send, receive = anyio.create_memory_object_stream[int](max_buffer_size=4)
-        distance = cpl.Fluent(math.inf, name="distance")
+        distance: cpl.Fluent[float] = cpl.Fluent(math.inf, name="distance")
 
         async def pump() -> None:  # stream -> fluent, forever
             try:
