@@ -37,7 +37,7 @@ from ._failure_handling import signal_failure
 from ._failures import CompositeFailure, PlanFailure
 from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
-from ._task import Task, _require_task, as_coroutine, join_owned
+from ._task import Task, _require_task, as_coroutine, join_owned, run_joined
 
 __all__ = [
     "AllSucceed",
@@ -80,8 +80,8 @@ class Tagged:
 
     def __await__(self) -> Generator[Any, None, Any]:
         parent = _require_task(f"cpl.tag({self.name!r})")
-        child = self.make_task(parent).start()
-        return join_owned(child).__await__()
+        child = self.make_task(parent)
+        return run_joined(child).__await__()
 
 
 def tag(name: str, aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> Tagged:

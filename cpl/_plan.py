@@ -13,7 +13,7 @@ import inspect
 from collections.abc import Callable, Coroutine, Generator
 from typing import Any, Generic, ParamSpec, TypeVar, overload
 
-from ._task import Task, _require_task, join_owned
+from ._task import Task, _require_task, run_joined
 
 __all__ = ["PlanCall", "plan"]
 
@@ -70,8 +70,8 @@ class PlanCall(Generic[R]):
 
     def __await__(self) -> Generator[Any, None, R]:
         parent = _require_task(f"plan {self.name!r}")
-        child = self.make_task(parent).start()
-        result: R = yield from join_owned(child).__await__()
+        child = self.make_task(parent)
+        result: R = yield from run_joined(child).__await__()
         return result
 
     def __repr__(self) -> str:

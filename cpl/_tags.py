@@ -29,7 +29,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from ._status import Status
-from ._task import Task, _require_task, join_owned
+from ._task import Task, _require_task, run_joined
 
 __all__ = ["Tags", "with_tags"]
 
@@ -84,8 +84,7 @@ class Tags:
             task._move_under(caller)
         self._used.add(name)
         task._aw = aw
-        task.start()
-        return await join_owned(task)
+        return await run_joined(task)
 
     def _close(self) -> None:
         self._closed = True

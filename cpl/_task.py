@@ -78,6 +78,7 @@ class Task:
         "_children",
         "_constraints",
         "_entry",
+        "_inline_parent",
         "_name_counts",
         "_on_finish",
         "_resume",
@@ -120,6 +121,11 @@ class Task:
         self.kind: str = kind
         self._aw: Any = aw
         self._atask: asyncio.Task[None] | None = None
+        # Invariant: set while this task runs *inline*: its body runs in the asyncio task
+        # of the parent that joins it (see run_inline), and this is that parent. Such
+        # tasks share one asyncio task down a chain; a suspension at the innermost one's
+        # checkpoint is where the whole chain stops.
+        self._inline_parent: Task | None = None
         # Invariant: False until the body has returned, failed or been evaporated; then the
         # outcome is fixed and only the children's teardown remains (evaporate is a no-op).
         self._body_done: bool = False
@@ -405,6 +411,99 @@ class Task:
         if reraise is not None:
             raise reraise
 
+    async def _run_inline(self) -> Any:
+        """Run this CREATED task's body in the calling asyncio task and join it: its value,
+        its failure re-raised, or ``None`` if it was evaporated (what ``join`` gives).
+
+        This is the fast path of ``with_task``, plan calls and awaited tags: the parent
+        only waits for the child, so the child needs no asyncio task of its own (CRAM's
+        ``with-task`` makes a thread). The task tree, statuses, instruments, evaporation,
+        suspension and teardown are the same as for a task on its own asyncio task:
+
+        - evaporating the child cancels the shared asyncio task; the child's handler below
+          takes back its own cancellation (``uncancel``) and the parent goes on, unless a
+          cancellation of the parent (or of the whole asyncio task) is pending too, which
+          then propagates after the child has become EVAPORATED;
+        - evaporating the parent arrives in the child's code first: the child's ``finally``
+          blocks and its children's teardown run before the parent's, as with a joined task.
+        """
+        parent = CURRENT_TASK.get()
+        host = asyncio.current_task()
+        assert host is not None and parent is not None
+        self._atask = host
+        self._inline_parent = parent
+        token = CURRENT_TASK.set(self)
+        self.start_time = asyncio.get_running_loop().time()
+        self._set_state(_RUNNING)
+        outcome = _SUCCEEDED
+        reraise: BaseException | None = None
+        try:
+            if self._suspend_requested:
+                await self._suspend_here()
+            aw = self._aw
+            self._aw = None
+            if not inspect.isawaitable(aw):
+                aw = aw()
+                if not inspect.isawaitable(aw):
+                    raise TypeError(
+                        f"task {self.name!r}: the callable returned {type(aw).__name__}, "
+                        "not an awaitable; pass an async function"
+                    )
+            self.result = await aw
+        except asyncio.CancelledError as exc:
+            if self.evaporation is not None:
+                outcome = _EVAPORATED
+                host.uncancel()  # our own evaporation's cancel request, consumed here
+                if host.cancelling():
+                    reraise = exc  # the parent (or the asyncio task) was cancelled too
+            elif host.cancelling():
+                # The shared asyncio task was cancelled for an ancestor (or from outside):
+                # this task dies with it.
+                self.evaporation = Evaporated("its parent was evaporated", parent.path)
+                outcome = _EVAPORATED
+                reraise = exc
+            else:
+                outcome = _FAILED  # a foreign CancelledError: not ours to swallow
+                self.failure = exc
+        except GeneratorExit:
+            self._close_aw()
+            raise
+        except (KeyboardInterrupt, SystemExit) as exc:
+            outcome = _FAILED
+            self.failure = exc
+            reraise = exc
+        except BaseException as exc:
+            outcome = _FAILED
+            self.failure = exc
+        finally:
+            self._close_aw()
+        if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
+            host.uncancel()  # the body swallowed its evaporation: take back our request
+        if outcome is not _SUCCEEDED:
+            self.result = None
+        self._body_done = True
+        if self._children:
+            try:
+                await self._teardown_children()
+            except asyncio.CancelledError as exc:
+                if reraise is None:
+                    reraise = exc
+        CURRENT_TASK.reset(token)
+        self._inline_parent = None
+        self._finish(outcome)
+        if reraise is not None:
+            raise reraise
+        if parent._state is _SUSPENDED:
+            # The parent was suspended while this child ran in its place: its code must
+            # not go on before it is woken.
+            await parent._wait_resumed()
+        if outcome is _FAILED:
+            failure = self.failure
+            assert failure is not None
+            signal_failure(failure)
+            raise failure
+        return self.result
+
     def _close_aw(self) -> None:
         aw = self._aw
         self._aw = None
@@ -565,6 +664,18 @@ class Task:
         for form in self._active_forms or ():
             if form._state is _RUNNING:
                 form._set_state(_SUSPENDED)
+        # Inline ancestors whose code waits for this one in the same asyncio task reach no
+        # checkpoint of their own: a pending request suspends them here, with this task.
+        node = self._inline_parent
+        while node is not None:
+            if node._suspend_requested and node._state is _RUNNING:
+                node._suspend_requested = False
+                node._resume = asyncio.get_running_loop().create_future()
+                node._set_state(_SUSPENDED)
+                for form in node._active_forms or ():
+                    if form._state is _RUNNING:
+                        form._set_state(_SUSPENDED)
+            node = node._inline_parent
         previous, self.waiting_on = self.waiting_on, "suspended"
         try:
             await resume
@@ -579,6 +690,37 @@ class Task:
         for form in self._active_forms or ():
             if form._state is _SUSPENDED:
                 form._set_state(_RUNNING)
+        node = self._inline_parent
+        while node is not None:  # ancestors woken meanwhile run again with this task
+            if node._state is _SUSPENDED and node._resume is not None and node._resume.done():
+                node._resume = None
+                node._resume_state()
+            node = node._inline_parent
+
+    def _resume_state(self) -> None:
+        self._set_state(_RUNNING)
+        for form in self._active_forms or ():
+            if form._state is _SUSPENDED:
+                form._set_state(_RUNNING)
+
+    async def _wait_resumed(self) -> None:
+        """Wait, in this (inline-suspended) task's code, until it is woken; then RUNNING.
+        Evaporation while waiting raises :class:`Evaporated`."""
+        resume = self._resume
+        if resume is None:
+            resume = self._resume = asyncio.get_running_loop().create_future()
+        previous, self.waiting_on = self.waiting_on, "suspended"
+        try:
+            await resume
+        except asyncio.CancelledError:
+            if self.evaporation is not None:
+                raise self.evaporation from None
+            raise
+        finally:
+            self._resume = None
+            self.waiting_on = previous
+        if self._state is _SUSPENDED:
+            self._resume_state()
 
     def __repr__(self) -> str:
         return f"<cpl.Task {'/'.join(self.path)} {self._state.name}>"
@@ -650,10 +792,22 @@ async def with_task(
     child is evaporated and waited for before the evaporation propagates.
     """
     parent = _require_task("cpl.with_task")
-    child = Task(
-        aw, name, kind=kind, arguments=arguments, annotations=annotations, parent=parent
-    ).start()
-    return await join_owned(child)
+    child = Task(aw, name, kind=kind, arguments=arguments, annotations=annotations, parent=parent)
+    return await run_joined(child)
+
+
+async def run_joined(child: Task) -> Any:
+    """Start a fresh CREATED ``child`` and join it, running it inline in the caller's
+    asyncio task when it can (see :meth:`Task._run_inline`), on its own asyncio task
+    otherwise (a child with ordering constraints)."""
+    if child._constraints or child._atask is not None or child._state is not _CREATED:
+        child.start()
+        return await join_owned(child)
+    if child.evaporation is not None:  # evaporated before it started: it never runs
+        child._close_aw()
+        child._finish(_EVAPORATED)
+        return None
+    return await child._run_inline()
 
 
 async def join_owned(child: Task) -> Any:

@@ -583,4 +583,7 @@ def test_fluent_updated_from_a_worker_thread_through_anyio_from_thread(cpl_run: 
         await cpl.par(watch, anyio.to_thread.run_sync(driver))
         return seen
 
-    assert cpl_run(main, clock=cpl.SystemClock()) == [1, 2, 3]
+    seen = cpl_run(main, clock=cpl.SystemClock())
+    # Sets from the thread may land between two wake-ups of the watcher (it then reads the
+    # latest value): what it sees only grows, and it ends at the last value.
+    assert seen == sorted(seen) and seen[-1] == 3 and set(seen) <= {1, 2, 3}

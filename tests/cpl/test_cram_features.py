@@ -278,7 +278,7 @@ def test_task_fluents_follow_the_status_and_compose_in_nets(mrun: Any) -> None:
         return out
 
     assert mrun(main) == [True, False, False, True, True, False]
-    with pytest.raises(TypeError, match="cpl.Task"):
+    with pytest.raises(TypeError, match=r"cpl\.Task"):
         cpl.task_dead("work")  # type: ignore[arg-type]
 
 

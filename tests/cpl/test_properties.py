@@ -35,6 +35,8 @@ trees = st.recursive(
         st.tuples(st.sampled_from(sorted(FORMS)), st.lists(kids, min_size=1, max_size=4)),
         # a spawned subtree: a task whose body returns while the subtree still runs
         st.tuples(st.just("spawn"), kids, st.integers(0, 3)),
+        # a joined child (with_task: runs inline in the parent's asyncio task)
+        st.tuples(st.just("with"), kids),
     ),
     max_leaves=12,
 )
@@ -94,6 +96,13 @@ def build(spec, counts, ids):
             return None  # the subtree outlives the body: teardown evaporates it
 
         return run_spawner
+    if spec[0] == "with":
+        inner = build(spec[1], counts, ids)
+
+        async def run_with():
+            return await cpl.with_task(inner(), name="with")
+
+        return run_with
     if spec[0] == "leaf":
         _, delay, outcome = spec
         n = next(ids)
@@ -125,6 +134,8 @@ def oracle(spec):
         return spec[2] == "ok"
     if spec[0] == "spawn":
         return None  # timing decides whether the subtree's outcome is joined
+    if spec[0] == "with":
+        return oracle(spec[1])
     form, kids = spec
     outs = [oracle(k) for k in kids]
     if form in ("seq", "par"):
