@@ -163,3 +163,5 @@ def test_tree_assertions_pass_and_fail_with_the_tree() -> None:
         as_tree("never-ran")
     with pytest.raises(ValueError, match="times"):
         assert_retried(tree, "step", -1)
+    with pytest.raises(ValueError, match="unknown task status 'succeded'; use one of created"):
+        assert_retried(tree, "step", 2, then="succeded")

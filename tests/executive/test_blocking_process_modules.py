@@ -238,6 +238,8 @@ def test_cancel_request_callbacks_run_on_the_loop_thread_at_the_request(cpl_run:
     late._set("already")
     late.add_callback(lambda req: log.append(f"late hook: {req.reason}"))
     assert log[-1] == "late hook: already" and late.requested and late.wait(0)
+    with pytest.raises(TypeError, match="add_callback"):
+        late.add_callback("stop the base")  # type: ignore[arg-type]
 
 
 def test_a_driver_that_ignores_the_request_is_abandoned_and_on_cancel_still_runs(
