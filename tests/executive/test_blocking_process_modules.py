@@ -344,3 +344,57 @@ def test_example_08_runs_and_the_monitor_stops_the_blocking_driver() -> None:
         "loop ticks while the driver blocked: many",
     ]
     assert "~ navigation - evaporated" in proc.stdout
+
+
+def test_the_live_view_keeps_drawing_while_a_blocking_driver_works(cpl_run: Any) -> None:
+    """The live task-tree view redraws from the loop: it shows the running goal while the
+    driver blocks in its thread (the driver is released only after three such frames)."""
+    import io
+
+    from rich.console import Console
+
+    from cpl.display import LiveTaskTree
+
+    log: list[str] = []
+    driver = Driver(log)
+
+    class CountingView(LiveTaskTree):
+        def __init__(self, root: cpl.Task) -> None:
+            console = Console(file=io.StringIO(), width=100)
+            super().__init__(root, refresh_per_second=200, console=console, ascii=True)
+            self.root = root
+            self.frames_with_goal = 0
+
+        def refresh(self, *, final: bool = False) -> None:
+            super().refresh(final=final)
+            if any(t.name == "nav" and t.state is cpl.Status.RUNNING for t in cpl.walk(self.root)):
+                self.frames_with_goal += 1
+
+    class Nav(ThreadedNav):
+        def execute_blocking(self, motion: Any, cancel: CancelRequest) -> str:
+            result = self.driver.run(lambda k: None, cancel, steps=0)
+            self.driver.log.append("driver returned")
+            return result
+
+    nav = Nav(driver, cpl.Fluent(0, name="progress"))
+
+    async def main() -> Any:
+        root = cpl.current_task()
+        assert root is not None
+        async with CountingView(root) as view, with_process_modules(nav):
+
+            async def release_after_three_frames() -> None:
+                while view.frames_with_goal < 3:
+                    await cpl.sleep(0.005)
+                log.append("the view drew the running goal 3 times")
+                driver.release.set()
+
+            return await cpl.par(perform(going()), release_after_three_frames())
+
+    assert cpl_run(main, clock=SYSTEM()) == ["done", None]
+    assert log == [
+        "driver started",
+        "the view drew the running goal 3 times",
+        "driver released",
+        "driver returned",
+    ]
