@@ -53,7 +53,7 @@ class PolicyFailure(PlanFailure):
     """Base of the failures a policy raises; ``policy`` is the policy object."""
 
     def __init__(self, message: str | None = None, *, policy: Policy | None = None) -> None:
-        super().__init__(message, policy=policy)
+        super().__init__(message)
         self.policy = policy
 
 
