@@ -68,7 +68,7 @@ __all__ = [
 
 ExcTypes: TypeAlias = type[BaseException] | tuple[type[BaseException], ...]
 Handler: TypeAlias = Callable[[Any], Any]
-Handlers: TypeAlias = Mapping[ExcTypes, Handler] | Iterable[tuple[ExcTypes, Handler]]
+Handlers: TypeAlias = Mapping[Any, Handler] | Iterable[tuple[Any, Handler]]
 
 
 class _ErrorMeta(type):

@@ -18,7 +18,7 @@ import operator
 import weakref
 from collections.abc import AsyncIterator, Callable, Sequence
 from threading import get_ident
-from typing import Any, Generic, Literal, TypeVar
+from typing import Any, Generic, Literal, TypeVar, overload
 
 from ._scheduling import CURRENT_TASK, block_until
 
@@ -638,7 +638,15 @@ def pulsed(fluent: Fluent[Any], handle_missed: HandleMissed = "once") -> Fluent[
 # --------------------------------------------------------------------------- waiting
 
 
-async def wait_for(fluent: Fluent[T] | T, timeout: float | None = None) -> T | None:
+@overload
+async def wait_for(fluent: Fluent[T], timeout: float | None = None) -> T | None: ...
+
+
+@overload
+async def wait_for(fluent: T, timeout: float | None = None) -> T | None: ...
+
+
+async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
     """Wait until ``fluent.value`` is truthy and return that value.
 
     Returns at once if it already is. Every pulse re-checks (a pulse that leaves the value

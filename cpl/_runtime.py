@@ -9,6 +9,7 @@ keeps the last run of each *named* top level (CRAM's ``*top-level-task-trees*``)
 from __future__ import annotations
 
 import asyncio
+import importlib
 import inspect
 import logging
 import weakref
@@ -317,9 +318,8 @@ def _require_asyncio(what: str, fn: Any) -> None:
     _close(fn)
     library = "unknown"
     try:
-        import sniffio
-
-        library = sniffio.current_async_library()
+        # sniffio is optional (trio and older anyio bring it): looked up, not imported.
+        library = importlib.import_module("sniffio").current_async_library()
     except Exception:  # sniffio missing or no async library detected
         pass
     raise RuntimeError(

@@ -1,23 +1,22 @@
-"""The seed's walkthrough in projection, every REPL step in order: low-level functions,
-process modules, motions, atomic actions, pick and place, and the transport of the bowl
-from the sink area to the kitchen island. Prints each designator and, at the end, the task
-tree (finished subtrees collapsed).
+"""The seed's REPL walkthrough in projection, step by step with the seed's own numbers
+(``shared/reference/seed_cram_tutorial.txt``): low-level functions, a process module,
+motions, atomic actions, picking up a cup with the left arm and grasp ``top``, carrying it
+to (-0.5, 0, 0) and putting it down, then CRAM's demo with the bowl alone
+(``demo-random nil '(:bowl)``). Prints each step and, at the end, the task tree (finished
+subtrees collapsed).
 
     python examples/07_seed_walkthrough.py [SEED]
 """
 
 from __future__ import annotations
 
-import math
 import sys
 
 import cpl
-import plans
 import projection
 from cpl.display import render_text
-from cpl.testing import MockClock
 from executive import Pose, a, an, perform, pm_execute
-from plans.demo import fetch_location, place_location
+from plans.demo import table_setting
 
 
 def section(title: str) -> None:
@@ -31,69 +30,59 @@ def show(what: str, value: object) -> None:
 async def walkthrough(world: projection.World) -> None:
     section("1. low-level functions (the belief world itself)")
     world.drive(Pose((0.5, 0.0, 0.0)))
-    show("(drive (0.5 0 0))", world.robot_pose())
-    world.move_torso(0.25)
-    show("(move-torso 0.25)", f"torso at {world.torso_height:.3f} m")
+    show("(urdf-proj::drive (0.5 0 0))", world.robot_pose())
+    world.move_torso(0.3)
+    show("(urdf-proj::move-torso 0.3)", f"torso at {world.torso_height:.3f} m")
     world.spawn_object("cup-1", "cup", Pose((1.5, 0.0, 1.3)))
-    world.look_at(world.object_pose("cup-1"))
-    show("(detect (an object (type cup)))", world.detect(an.object(type="cup"))[0])
-    world.remove_object("cup-1")
+    show("(urdf-proj::detect (an object (type cup)))", world.detect(an.object(type="cup"))[0])
 
     async with projection.with_projected_robot(world):
         section("2. process modules")
-        going = a.motion(type="going", pose=Pose((0.3, 0.0, 0.0)))
+        going = a.motion(type="going", pose=Pose((0.75, 0.0, 0.0)))
         await pm_execute("navigation", going)
         show(f"(pm-execute navigation {going})", world.robot_pose())
 
         section("3. motions")
-        for motion in (
-            a.motion(type="going", pose=Pose.from_xyz_yaw(0.5, 0.2, 0.0, 0.0)),
-            a.motion(type="moving-torso", joint_angle=0.3),
-            a.motion(type="looking", direction="forward"),
-        ):
-            await perform(motion)
-            show(f"(perform {motion})", "done")
+        await perform(going)
+        show(f"(perform {going})", world.robot_pose())
 
         section("4. atomic actions")
-        world.spawn_object("cup-1", "cup", Pose((1.3, 0.6, 0.9)))
-        spot = a.location(pose=Pose((1.3, 0.6, 0.9)))
-        for action in (
-            an.action(
-                type="positioning-arm", left_configuration="park", right_configuration="park"
-            ),
-            an.action(type="navigating", location=Pose((0.75, 0.6, 0.0))),
-            an.action(type="looking", target=spot),
-        ):
+        origin = an.action(type="going", target=a.location(pose=Pose((0.0, 0.0, 0.0))))
+        await perform(origin)
+        show(f"(perform {origin})", world.robot_pose())
+        hand = Pose((0.7, 0.5, 0.8), frame="base_footprint")
+        for verb in ("lifting", "reaching"):
+            action = an.action(type=verb, left_poses=(hand,))
             await perform(action)
-            show(f"(perform {action})", "done")
+            show(f"(perform {action})", world.link_pose("l_gripper_tool_frame", "base_footprint"))
+
+        section("5. picking up a cup, carrying it, putting it down")
+        world.remove_object("cup-1")
+        world.spawn_object("cup-1", "cup", Pose((0.5, 0.3, 1.0)))
+        spawned = world.object_pose("cup-1")
+        show("(spawn-object 'cup-1 :cup :pose ((0.5 0.3 1.0) (0 0 0 1)))", spawned)
+        await perform(an.action(type="looking", target=a.location(pose=hand)))
         cup = await perform(an.action(type="detecting", object=an.object(type="cup")))
         show("(perform (an action (type detecting) (object (an object (type cup)))))", cup)
-
-        section("5. pick and place")
-        picking = plans.check_picking_up_collisions(
-            an.action(type="picking-up", object=cup, arm="left")
+        await perform(an.action(type="picking-up", object=cup, arm="left", grasp="top"))
+        show(
+            "(perform (an action (type picking-up) (object ?obj) (arm left) (grasp top)))",
+            f"held by {world.attachments['cup-1']} at {world.object_pose('cup-1')}",
         )
-        show("check-picking-up-collisions chose", picking.reference().arguments["grasp"])
-        await perform(picking)
-        await perform(an.action(type="navigating", location=Pose((0.55, 0.6, 0.0))))
-        show("the cup follows the hand", world.object_pose("cup-1"))
-        placing = plans.check_placing_collisions(
-            an.action(type="placing", arm="left", target=a.location(pose=Pose((1.25, 0.4, 0.9))))
+        away = an.action(type="going", target=a.location(pose=Pose((-0.5, 0.0, 0.0))))
+        await perform(away)
+        show(f"(perform {away})", f"the cup followed the hand: {world.object_pose('cup-1')}")
+        await perform(an.action(type="placing", arm="left"))
+        held = dict(world.attachments) or "nothing"
+        show(
+            "(perform (an action (type placing) (arm left)))",
+            f"held: {held}; the cup at {world.object_pose('cup-1')}",
         )
-        await perform(placing)
-        show(f"(perform {placing})", world.object_pose("cup-1"))
         world.remove_object("cup-1")
 
-        section("6. transporting the bowl from the sink area to the kitchen island")
-        world.spawn_object("bowl-1", "bowl", Pose.from_xyz_yaw(1.4, 0.8, 0.88, math.pi / 8))
-        transport = an.action(
-            type="transporting",
-            object=an.object(type="bowl"),
-            location=fetch_location("bowl"),
-            target=place_location("bowl"),
-        )
-        show("transport", transport)
-        await perform(transport)
+        section("6. (demo-random nil '(:bowl)): the bowl from the sink area to the island")
+        outcomes = await table_setting(world, ["bowl"], random=False)
+        show("outcome", outcomes["bowl"])
         show("the bowl is now at", world.object_pose("bowl-1"))
 
 
@@ -101,7 +90,7 @@ def main() -> None:
     seed = int(sys.argv[1]) if len(sys.argv) > 1 else 3
     world = projection.World(seed=seed)
     try:
-        cpl.run(walkthrough, world, name="walkthrough", clock=MockClock())
+        cpl.run(walkthrough, world, name="walkthrough", clock=cpl.ScaledClock(None))
     finally:
         world.close()
     tree = cpl.task_tree("walkthrough")

@@ -349,7 +349,7 @@ class Designator:
         stream = self._ensure_stream()
         return LazyList(stream.iter_from(self._index))
 
-    def next_solution(self) -> Designator | None:
+    def next_solution(self) -> Self | None:
         """A new designator, equated to this one, whose solution is the next element of the
         solution stream; ``None`` when there is none (CRAM's ``next-solution``)."""
         stream = self._ensure_stream()
@@ -359,7 +359,7 @@ class Designator:
             return None
         return self._successor_with(stream, index, value)
 
-    def _successor_with(self, stream: _SolutionStream, index: int, value: Any) -> Designator:
+    def _successor_with(self, stream: _SolutionStream, index: int, value: Any) -> Self:
         new = object.__new__(type(self))
         _init(new, self._props)
         object.__setattr__(new, "_stream", stream)

@@ -195,6 +195,18 @@ def _closest_grasp(object_type: str, rotation: np.ndarray) -> knowledge.Grasp:
     return min(knowledge.object_knowledge(object_type).grasps, key=angle)
 
 
+def _put_back_pose(object_type: str, object_t_tool: Transform, held: Pose) -> Pose:
+    """Where a placing without a target puts the object: straight back down from where
+    the hand holds it by the grasp's lift offset (object frame), i.e. where a pick-up
+    lifted it from. Deliberate difference: CRAM's targetless placing puts the object
+    "down" at the pose it is held at, reaching above it first, which takes an arm that
+    just lifted an object at the limit of its reach beyond that limit (the seed's cup,
+    held 1.07 m high)."""
+    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3])
+    lowered = held.matrix() @ Transform(tuple(-v for v in g.second_lift_offset)).matrix()
+    return Transform.from_matrix(lowered, held.frame).to_pose()
+
+
 #: Types whose yaw on the table does not matter (round): more placing yaws are tried.
 ROUND_TYPES = frozenset({"bowl", "cup", "plate"})
 
@@ -254,7 +266,8 @@ def _placing(d: Designator) -> Iterator[Any]:
         tool_map = world.link_pose(tool_frame(arm), "map").to_transform()
         object_t_tool = obj_map.inverse() * tool_map
         if target is None:
-            targets: Any = [world.object_pose(name, "base_footprint")]
+            held_now = world.object_pose(name, "base_footprint")
+            targets: Any = [_put_back_pose(otype, object_t_tool, held_now)]
         elif isinstance(target, LocationDesignator):
             targets = target.current().solutions()
         elif isinstance(target, Pose):

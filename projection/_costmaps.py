@@ -32,6 +32,7 @@ from typing import Final
 import numpy as np
 import pybullet as pb
 
+from executive import kitchen
 from executive._pose import Pose, yaw_quaternion
 from projection import _urdf
 
@@ -102,8 +103,8 @@ DEMO_AREAS: Final = ((0.0, 1.0, -1.0, 1.25), (-1.0, 0.0, -1.0, 2.5))
 #: Table-setting slot paddings (x+, x-, y+, y-) per surface link (default 0.03 all round).
 SLOT_PADDINGS: Final[Mapping[str, tuple[float, float, float, float]]] = MappingProxyType(
     {
-        "kitchen_island_surface": (0.03, 0.03, 0.8, 0.03),
-        "sink_area_surface": (0.03, 0.03, 0.03, 0.03),
+        kitchen.ISLAND_SURFACE: (0.03, 0.03, 0.8, 0.03),
+        kitchen.SINK_SURFACE: (0.03, 0.03, 0.03, 0.03),
     }
 )
 #: Slot size (max, min) per object type (default (0.8, 0.5)).

@@ -19,7 +19,7 @@ Kitchen (map frame, fixed base, origin = map origin), after the IAI kitchen:
 z 0.82..0.85) on it; the hollow drawer ``sink_area_left_upper_drawer_main`` (x 1.12..1.70,
 y 0.80..1.20, bottom top at z 0.7335) on the prismatic
 ``sink_area_left_upper_drawer_main_joint`` opening along -x (0..0.48 m) with its handle;
-``kitchen_island`` x -1.20..-0.55, y 0.20..2.40 with ``kitchen_island_surface`` (top
+``kitchen_island`` x -1.20..-0.55, y 0.40..2.40 with ``kitchen_island_surface`` (top
 0.85); four walls ``kitchen_wall_{east,west,south,north}`` as separate links (so a
 costmap built from link AABBs does not cover the room). Link origins are the centres of
 their boxes.
@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
+from executive import kitchen
 from projection._objects import OBJECT_TYPES, ObjectType, Shape
 
 __all__ = [
@@ -282,16 +283,18 @@ _DRAWER = (
     _span((1.135, 1.185, 0.7335), (1.685, 1.20, 0.815)),  # left side
 )
 _HANDLE = (_span((1.095, 0.925, 0.765), (1.12, 1.075, 0.785)),)
-_ISLAND = (_span((-1.20, 0.20, 0.0), (-0.55, 2.40, 0.82)),)
-_ISLAND_SURFACE = (_span((-1.20, 0.20, 0.82), (-0.55, 2.40, 0.85)),)
+#: The island starts at y 0.40, so the robot stands clear of it at the seed's (-0.5, 0, 0)
+#: (its 0.65 m base then ends at y 0.325) while every CRAM placing pose (y 0.8..1.7) is on it.
+_ISLAND = (_span((-1.20, 0.40, 0.0), (-0.55, 2.40, 0.82)),)
+_ISLAND_SURFACE = (_span((-1.20, 0.40, 0.82), (-0.55, 2.40, 0.85)),)
 _WALLS = {
     "kitchen_wall_east": (_span((2.00, -1.70, 0.0), (2.10, 3.10, 2.0)),),
     "kitchen_wall_west": (_span((-2.10, -1.70, 0.0), (-2.00, 3.10, 2.0)),),
     "kitchen_wall_south": (_span((-2.00, -1.70, 0.0), (2.00, -1.60, 2.0)),),
     "kitchen_wall_north": (_span((-2.00, 3.00, 0.0), (2.00, 3.10, 2.0)),),
 }
-DRAWER_LINK = "sink_area_left_upper_drawer_main"
-DRAWER_JOINT = "sink_area_left_upper_drawer_main_joint"
+DRAWER_LINK = kitchen.DRAWER_LINK
+DRAWER_JOINT = kitchen.DRAWER_JOINT
 DRAWER_TRAVEL = 0.48
 
 #: Axis-aligned boxes of the kitchen in the map frame: link -> ((lo xyz), (hi xyz)) pieces.
@@ -299,11 +302,11 @@ DRAWER_TRAVEL = 0.48
 KITCHEN_BOXES: Mapping[str, tuple[tuple[Vec3, Vec3], ...]] = MappingProxyType(
     {
         "sink_area": _SINK,
-        "sink_area_surface": _SINK_SURFACE,
+        kitchen.SINK_SURFACE: _SINK_SURFACE,
         DRAWER_LINK: _DRAWER,
-        "sink_area_left_upper_drawer_handle": _HANDLE,
+        kitchen.DRAWER_HANDLE: _HANDLE,
         "kitchen_island": _ISLAND,
-        "kitchen_island_surface": _ISLAND_SURFACE,
+        kitchen.ISLAND_SURFACE: _ISLAND_SURFACE,
         **_WALLS,
     }
 )
@@ -336,19 +339,19 @@ def kitchen_urdf() -> str:
     """The kitchen: one fixed-base body rooted at the map origin."""
     colours = {
         "sink_area": _WOOD,
-        "sink_area_surface": _TOP,
+        kitchen.SINK_SURFACE: _TOP,
         DRAWER_LINK: _WOOD,
-        "sink_area_left_upper_drawer_handle": _DARK,
+        kitchen.DRAWER_HANDLE: _DARK,
         "kitchen_island": _WOOD,
-        "kitchen_island_surface": _TOP,
+        kitchen.ISLAND_SURFACE: _TOP,
     }
     parents = {
         "sink_area": "kitchen_root",
-        "sink_area_surface": "sink_area",
+        kitchen.SINK_SURFACE: "sink_area",
         DRAWER_LINK: "sink_area",
-        "sink_area_left_upper_drawer_handle": DRAWER_LINK,
+        kitchen.DRAWER_HANDLE: DRAWER_LINK,
         "kitchen_island": "kitchen_root",
-        "kitchen_island_surface": "kitchen_island",
+        kitchen.ISLAND_SURFACE: "kitchen_island",
     }
     origins = {name: _centre(pieces) for name, pieces in KITCHEN_BOXES.items()}
     links = [Link("kitchen_root", (), 1.0)]

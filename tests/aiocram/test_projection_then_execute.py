@@ -85,6 +85,7 @@ def test_the_real_run_uses_the_base_poses_chosen_in_projection(mrun, checker):
         (real_run,) = cpl.find_tasks(root, name="real-run")
         imagined = cpl.find_tasks(root, pred=lambda t: t.name.startswith("projection-run"))
         assert len(imagined) == 3
+        assert real_run.annotations is not None
         chosen = real_run.annotations["projected"]
         assert chosen.fetch_robot_location is not None
         # the navigating performed right before the real picking-up went to the chosen pose
@@ -94,6 +95,7 @@ def test_the_real_run_uses_the_base_poses_chosen_in_projection(mrun, checker):
         _, nav_action = nav
         assert nav_action.get("location").reference() == chosen.fetch_robot_location.reference()
         # and the tree shows the imagined runs beside the real one
+        assert real_run.parent is not None
         names = [t.name for t in real_run.parent.children]
         assert names[-4:] == [
             "projection-run-1",

@@ -87,9 +87,11 @@ def test_previous_performed_is_the_nearest_earlier_sibling():
     found = previous_performed(grab, "moving")
     assert found is not None and found[1].get("where") == 2
     (glass, _), *_ = performed(root, "grabbing", state=cpl.Status.FAILED)
-    assert previous_performed(glass, "moving")[1].get("where") == 1
+    moved = previous_performed(glass, "moving")
+    assert moved is not None and moved[1].get("where") == 1
     assert previous_performed(grab, "grabbing", state=cpl.Status.SUCCEEDED) is None
-    assert previous_performed(grab, "grabbing")[1].get("what") == "glass"
+    grabbed = previous_performed(grab, "grabbing")
+    assert grabbed is not None and grabbed[1].get("what") == "glass"
 
 
 def test_newest_effective_follows_the_chain():

@@ -120,7 +120,7 @@ def test_designators_are_immutable() -> None:
     with pytest.raises(AttributeError, match="immutable"):
         act.type = "x"  # type: ignore[misc]
     with pytest.raises(AttributeError):
-        act.colour = "red"  # type: ignore[attr-defined]
+        act.colour = "red"
 
 
 def test_copy_replaces_removes_and_appends() -> None:

@@ -192,6 +192,6 @@ def test_positional_arguments_in_a_grounding(mrun: Any) -> None:
 
     async def main() -> int:
         async with environment(rules=rules):
-            return await perform(an.action(type="adding", x=40))  # type: ignore[no-any-return]
+            return await perform(an.action(type="adding", x=40))
 
     assert mrun(main, name="positional") == 42

@@ -25,7 +25,7 @@ def test_pose_normalises_and_validates() -> None:
     with pytest.raises(ValueError, match="frame"):
         Pose(frame="")
     with pytest.raises(AttributeError, match="immutable"):
-        p.frame = "odom"  # type: ignore[misc]
+        p.frame = "odom"
 
 
 def test_yaw_and_angles() -> None:

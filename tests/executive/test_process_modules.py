@@ -71,14 +71,17 @@ def test_status_fluent_follows_the_goals(mrun: Any) -> None:
     seen: list[PMStatus] = []
     pm.status.on_update(seen.append)
 
+    def status() -> PMStatus:
+        return pm.status.value
+
     async def main() -> None:
-        assert pm.status.value is PMStatus.OFFLINE
+        assert status() is PMStatus.OFFLINE
         async with with_process_modules(pm):
-            assert pm.running and pm.status.value is PMStatus.IDLE
+            assert pm.running and status() is PMStatus.IDLE
             await perform(going())
             with pytest.raises(NavigationPoseUnreachable):
                 await perform(going())
-            assert pm.status.value is PMStatus.FAILED
+            assert status() is PMStatus.FAILED
         assert not pm.running
 
     mrun(main, name="status")

@@ -196,7 +196,7 @@ def test_list_solutions(mrun: Any) -> None:
             used.append(grasps.current)
             if grasps.current != "side":
                 raise NavigationGoalInCollision()
-            return grasps.current  # type: ignore[no-any-return]
+            return grasps.current
 
         return await cpl.with_failure_handling(
             body,

@@ -125,9 +125,9 @@ def test_picking_up_sequence_and_attachment(cup_world):
     assert types == ["moving-tcp"] * 5
     attached = [e for e in cup_world.events if isinstance(e, ObjectAttached)]
     assert attached[0].arm == "left" and cup_world.object_in_hand("left") == "cup-1"
-    expected = knowledge.grasp_poses(
-        "cup", "back", action.reference().arguments["object_designator"]["transform"]
-    )
+    arguments = action.reference().arguments
+    assert isinstance(arguments, dict)
+    expected = knowledge.grasp_poses("cup", "back", arguments["object_designator"]["transform"])
     assert robot.calls("arms")[4].reference().arguments["left"] == expected[4]
 
 
@@ -250,7 +250,7 @@ def test_searching_gives_up_after_nine_retries(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectNowhereToBeFound):
         robot.run(search)
     assert counts["search"] == 9 and counts["search-torso"] == 10
@@ -264,11 +264,12 @@ def fetch(robot, world, **props):
 
 def test_fetching_relocates_when_no_pick_solution_is_reachable(cup_world):
     robot = make_robot(cup_world)
-    cup_world.fail_probe["arm"] = {n: True for n in range(1, 9)}  # all 8 (arm, grasp) fail
+    # all 10 (arm, grasp) fail: 2 arms x the cup's 5 grasps
+    cup_world.fail_probe["arm"] = {n: True for n in range(1, 11)}
     fetch(robot, cup_world)
     drives = [m.reference().arguments["pose"] for m in robot.calls("navigation", "going")]
     assert [round(p.position[0], 2) for p in drives] == [0.8, 0.7]
-    assert cup_world.object_in_hand("right") == "cup-1"  # 9th probe: right arm, back grasp
+    assert cup_world.object_in_hand("right") == "cup-1"  # 11th probe: right arm, back grasp
 
 
 def test_fetching_uses_the_next_grasp_then_the_other_arm(cup_world):
@@ -305,7 +306,7 @@ def test_fetching_gives_up_after_exactly_ten_relocations(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectUnfetchable):
         robot.run(go)
     assert counts["relocations"] == 10
@@ -353,7 +354,7 @@ def test_delivering_counts(cup_world):
             finally:
                 counts.update(ledger)
 
-    counts: dict = {}
+    counts: dict[str, int] = {}
     with pytest.raises(ObjectUndeliverable):
         robot.run(go)
     assert counts["deliver-targets"] == 2

@@ -32,6 +32,31 @@ def run_projected(mrun, world, fn, *args):
     return mrun(main)
 
 
+def test_the_seeds_pick_and_place_with_the_seeds_numbers(mrun):
+    # the seed's REPL: a cup at (0.5, 0.3, 1.0) picked from the origin with the left arm
+    # and grasp top, carried to (-0.5, 0, 0) (clear of the island) and put down again
+    world = projection.World(seed=1)
+    world.spawn_object("cup-1", "cup", Pose((0.5, 0.3, 1.0)))
+    look = Pose((0.7, 0.5, 0.8), frame="base_footprint")
+
+    async def seed():
+        await perform(an.action(type="going", target=a.location(pose=Pose())))
+        await perform(an.action(type="looking", target=a.location(pose=look)))
+        cup = await perform(an.action(type="detecting", object=an.object(type="cup")))
+        await perform(an.action(type="picking-up", object=cup, arm="left", grasp="top"))
+        assert world.object_pose("cup-1").position[2] > 1.05  # lifted
+        before = in_hand(world)
+        await perform(an.action(type="going", target=a.location(pose=Pose((-0.5, 0.0, 0.0)))))
+        assert world.robot_pose().isclose(Pose((-0.5, 0.0, 0.0)), 1e-6, 1e-6)
+        assert in_hand(world) == pytest.approx(before, abs=1e-3)
+        await perform(an.action(type="placing", arm="left"))
+        assert world.attachments == {}
+        # put back down where the hand lifted it from, now in front of the moved robot
+        assert world.object_pose("cup-1").position == pytest.approx((0.0, 0.3, 1.0), abs=0.02)
+
+    run_projected(mrun, world, seed)
+
+
 def test_pick_and_place_walkthrough(mrun):
     world = projection.World(seed=3)
     world.spawn_object("cup-1", "cup", Pose((1.3, 0.6, 0.9)))
@@ -69,7 +94,7 @@ def test_one_bowl_transport(mrun):
     assert on_island(world, "bowl-1") and world.attachments == {}
 
 
-def settled_moves(world, names, steps: int = 300) -> dict:
+def settled_moves(world, names, steps: int = 300) -> dict[str, float]:
     """How far (m) each object moves in ``steps`` more physics steps of the whole world."""
     import pybullet as pb
 

@@ -50,6 +50,12 @@ RUN_NAMES = ["projection-run-1", "projection-run-2", "projection-run-3"]
 
 
 # ------------------------------------------------------------------------------- fakes
+def projected(task: cpl.Task) -> Any:
+    """The projected parameters annotated on a real run."""
+    assert task.annotations is not None
+    return task.annotations["projected"]
+
+
 def world_state(world: InMemoryWorld) -> tuple[Any, ...]:
     """Everything of the in-memory world that plans change (poses are immutable)."""
     return (
@@ -195,10 +201,12 @@ def test_the_real_run_uses_the_cheapest_imagined_base_poses():
     assert all(r.state is cpl.Status.SUCCEEDED for r in runs)
     real_run = child(root, "real-run")
     # the runs sit side by side under the transport task, the real run last
-    assert [t.name for t in runs[0].parent.children][-4:] == [*RUN_NAMES, "real-run"]
+    parent = runs[0].parent
+    assert parent is not None
+    assert [t.name for t in parent.children][-4:] == [*RUN_NAMES, "real-run"]
     place_poses = [nav_pose_before(r, "delivering", "placing") for r in runs]
     assert [round(p.position[0], 3) for p in place_poses] == [-1.5, 0.5, -0.5]
-    chosen = real_run.annotations["projected"]
+    chosen = projected(real_run)
     assert chosen == projected_parameters(runs[1])
     assert nav_pose_before(real_run, "fetching", "picking-up") == nav_pose_before(
         runs[1], "fetching", "picking-up"
@@ -232,7 +240,7 @@ def test_injected_placing_target_is_anchored_in_the_map():
     target = Pose((0.55, 0.1, 0.85), frame="base_footprint")
     place = an.action(type="placing", target=a.location(pose=target))
     spot = _injected_spot(place, a.location(pose=projected_base))
-    assert spot.frame == "map"
+    assert spot is not None and spot.frame == "map"
     assert spot.position == pytest.approx((-0.75, 1.4, 0.85))
     assert _injected_spot(None, a.location(pose=projected_base)) is None
     map_target = Pose((-0.8, 1.2, 0.9))
@@ -251,15 +259,16 @@ def test_imagined_runs_leave_the_belief_world_unchanged():
 
 
 def test_an_imagined_failure_does_not_fail_the_real_run():
-    # Run 1: every picking-up probe fails for 11 relocations -> object-unfetchable.
+    # Run 1: every picking-up probe (2 arms x the cup's 5 grasps) fails for 11
+    # relocations -> object-unfetchable.
     world, real, _dream, imagination = setup()
-    world.fail_probe["arm"] = {n: True for n in range(1, 8 * 11 + 1)}
+    world.fail_probe["arm"] = {n: True for n in range(1, 10 * 11 + 1)}
     root, result = run_real(real, imagination, lambda: perform(transporting()))
     run1, run2, _ = (child(root, n) for n in RUN_NAMES)
     assert run1.state is cpl.Status.FAILED and isinstance(run1.failure, ObjectUnfetchable)
     assert run2.state is cpl.Status.SUCCEEDED
     assert result is not None and world.attached() == []
-    assert child(root, "real-run").annotations["projected"] == projected_parameters(run2)
+    assert projected(child(root, "real-run")) == projected_parameters(run2)
 
 
 def test_without_a_successful_run_nothing_is_injected():
@@ -432,16 +441,13 @@ def test_one_bowl_with_projection_reasoning(mrun):
         runs = [child(transport, n) for n in RUN_NAMES]
         real_run = child(transport, "real-run")
         assert all(r.state is cpl.Status.SUCCEEDED for r in runs)
-        picked = real_run.annotations["projected"]
+        picked = projected(real_run)
         assert picked in [projected_parameters(r) for r in runs]
-        assert (
-            nav_pose_before(real_run, "fetching", "picking-up")
-            == newest_effective(picked.fetch_robot_location).reference()
-        )
-        assert (
-            nav_pose_before(real_run, "delivering", "placing")
-            == newest_effective(picked.deliver_robot_location).reference()
-        )
+        fetch_base = newest_effective(picked.fetch_robot_location)
+        deliver_base = newest_effective(picked.deliver_robot_location)
+        assert fetch_base is not None and deliver_base is not None
+        assert nav_pose_before(real_run, "fetching", "picking-up") == fetch_base.reference()
+        assert nav_pose_before(real_run, "delivering", "placing") == deliver_base.reference()
         # the imagined runs changed the world, and each restore put it back exactly
         before = imagination.taken[0]
         assert len(imagination.restored) == 4

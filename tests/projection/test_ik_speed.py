@@ -112,7 +112,7 @@ def test_reach_precheck_never_rejects_a_reachable_target(sink: World) -> None:
     rejected = 0
     for _ in range(160):
         arm = ("left", "right")[int(rng.integers(2))]
-        pos_b = rng.uniform((-0.2, -1.0, 0.3), (1.1, 1.0, 1.9))
+        pos_b = tuple(float(v) for v in rng.uniform((-0.2, -1.0, 0.3), (1.1, 1.0, 1.9)))
         yaw, pitch = rng.uniform(-math.pi, math.pi), rng.uniform(-1.5, 1.5)
         orn_b = tuple(pb.getQuaternionFromEuler((0.0, pitch, yaw)))
         h = float(rng.choice([0.0, 0.15, 0.33]))

@@ -10,7 +10,7 @@ from executive._pose import Pose
 
 
 def test_grasp_enumeration_order() -> None:
-    assert knowledge.grasps("cup") == ("back", "front", "left-side", "right-side")
+    assert knowledge.grasps("cup") == ("back", "front", "left-side", "right-side", "top")
     assert knowledge.grasps("milk") == ("back", "left-side", "right-side", "front")
     assert knowledge.grasps("breakfast-cereal") == ("back", "front")
     assert knowledge.grasps("bowl") == ("top",)

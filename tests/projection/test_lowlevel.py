@@ -106,7 +106,9 @@ def _camera_error(world: World, point: tuple[float, float, float]) -> float:
 
 
 @pytest.mark.parametrize("point", [(1.3, 0.6, 0.9), (0.9, 1.4, 1.6), (1.6, -0.2, 0.2)])
-def test_look_at_points_the_optical_axis_at_the_target(sink: World, point: tuple) -> None:
+def test_look_at_points_the_optical_axis_at_the_target(
+    sink: World, point: tuple[float, float, float]
+) -> None:
     sink.look_at(Pose(point))
     assert _camera_error(sink, point) < 2e-3
 

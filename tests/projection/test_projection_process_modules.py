@@ -318,6 +318,7 @@ def test_nested_blocks_inner_wins(mrun: Any, world: World) -> None:
                 await perform(a.motion(type="moving-torso", joint_angle=0.2))
                 nav_in = inner.find_process_module("navigation")
                 nav_out = outer.find_process_module("navigation")
+                assert nav_in is not None and nav_out is not None
                 assert nav_in is not nav_out and nav_in.running and nav_out.running
             assert current_environment() is outer
             assert all(pm.status.value is PMStatus.OFFLINE for pm in inner.process_modules)

@@ -133,7 +133,7 @@ def test_snapshot_of_another_world_is_refused(world: World) -> None:
 
 def _random_run(seed: int) -> list[tuple[float, ...]]:
     with World(seed=seed) as w:
-        out = []
+        out: list[tuple[float, ...]] = []
         for k in range(3):
             x, y = w.rng.uniform([1.25, 0.0], [1.6, 0.9])
             w.spawn_object(f"o{k}", "cup", Pose((x, y, 0.905), (0, 0, math.sin(k), math.cos(k))))

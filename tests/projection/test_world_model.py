@@ -89,8 +89,8 @@ def test_attached_object_follows_the_gripper_on_drive(mrun: Any, world: World) -
     async def main() -> None:
         async with with_projected_robot(world) as env:
             emit(ObjectAttached(cup, "right", "r_wrist_roll_link"))
-            assert env.world.object_in_hand("right") == "cup-1"  # type: ignore[attr-defined]
-            assert env.world.object_in_hand("left") is None  # type: ignore[attr-defined]
+            assert env.world.object_in_hand("right") == "cup-1"
+            assert env.world.object_in_hand("left") is None
             await perform(a.motion(type="going", pose=Pose.from_xyz_yaw(0.3, -0.4, 0.0, 1.0)))
 
     in_hand = world.object_pose("cup-1", "base_footprint")
