@@ -381,7 +381,8 @@ def test_the_live_view_keeps_drawing_while_a_blocking_driver_works(cpl_run: Any)
     async def main() -> Any:
         root = cpl.current_task()
         assert root is not None
-        async with CountingView(root) as view, with_process_modules(nav):
+        view = CountingView(root)
+        async with view, with_process_modules(nav):
 
             async def release_after_three_frames() -> None:
                 while view.frames_with_goal < 3:
