@@ -31,6 +31,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
+from types import CoroutineType
 from typing import Any
 
 from ._failure_handling import signal_failure
@@ -104,6 +105,8 @@ def _close(aw: Any) -> None:
 
 
 def _branch_task(branch: Branch, parent: Task, default_name: str) -> Task:
+    if type(branch) is CoroutineType:  # the common case, first
+        return Task(branch, branch.cr_code.co_name, kind="branch", parent=parent)
     if isinstance(branch, Task):
         if branch.state is not Status.CREATED or branch._atask is not None:
             raise RuntimeError(

@@ -36,6 +36,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
+from types import CoroutineType
 from typing import TYPE_CHECKING, Any
 
 from ._failure_handling import signal_failure
@@ -358,7 +359,7 @@ class Task:
                 await self._suspend_here()
             aw = self._aw
             self._aw = None
-            if not inspect.isawaitable(aw):
+            if type(aw) is not CoroutineType and not inspect.isawaitable(aw):
                 aw = aw()
                 if not inspect.isawaitable(aw):
                     raise TypeError(
