@@ -1,4 +1,6 @@
-"""``aiocram bench``: run every benchmark in ``bench/`` and write ``BENCHMARKS.md``.
+"""``aiocram bench``: run every benchmark in ``bench/`` and write a markdown report
+(``out/BENCHMARKS.md`` by default; the tracked ``BENCHMARKS.md`` at the repository root is
+only replaced when asked for with ``--out BENCHMARKS.md``).
 
 Each benchmark runs in its own Python process (no shared caches, garbage or loops) and
 prints its figures beside a baseline measured in the same run, as ratios: these machines
@@ -135,6 +137,7 @@ def run_benchmarks(
         text = _markdown(results)
         if campaign is not None:
             text += "\n" + _campaign_markdown(campaign)
+        out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text)
         print(f"wrote {out}")
     return results
@@ -189,6 +192,7 @@ def _quick_args(script: str) -> tuple[str, ...]:
     return {
         "cpl_overhead.py": ("--sizes", "1000", "--repeat", "1", "--waiters", "1", "100"),
         "blocking_driver.py": ("--rounds", "1"),
+        "executive_perform.py": ("2000",),
         "projection_ops.py": ("--reps", "50"),
         "projection_costmaps.py": ("--reps", "50"),
         "projection_demo.py": ("--seeds", "1"),
@@ -210,7 +214,8 @@ def _markdown(results: list[dict[str, Any]]) -> str:
         f"- machine: {m['cpu']}, {m['cores']} cores, {m['memory']}; {m['os']}",
         f"- Python {m['python']}, pybullet {m['pybullet']}",
         "",
-        "To reproduce: `pip install -e . && aiocram bench` (all, ~10 minutes), or",
+        "To reproduce: `pip install -e . && aiocram bench` (all, ~10 minutes; writes",
+        "`out/BENCHMARKS.md`, `--out BENCHMARKS.md` updates this file), or",
         "`aiocram bench cpl_overhead` for one; each script also runs alone:",
         "`python bench/<script>.py --help`.",
         "",
@@ -232,9 +237,22 @@ def _markdown(results: list[dict[str, Any]]) -> str:
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("bench", help="run the benchmarks and write BENCHMARKS.md")
+    from aiocram._help import HelpFormatter
+
+    p = subparsers.add_parser(
+        "bench",
+        help="run the benchmarks and write a markdown report",
+        description="Run the benchmarks in bench/ (each in its own process) and write their "
+        "output, with the machine and the date, as a markdown report.",
+        formatter_class=HelpFormatter,
+    )
     p.add_argument("names", nargs="*", help="only these benchmarks (script name prefixes)")
-    p.add_argument("--out", default="BENCHMARKS.md", help="the report (default BENCHMARKS.md)")
+    p.add_argument(
+        "--out",
+        default="out/BENCHMARKS.md",
+        metavar="FILE",
+        help="the report (--out BENCHMARKS.md replaces the tracked one at the repository root)",
+    )
     p.add_argument("--no-report", action="store_true", help="print only, write no report")
     p.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
     p.add_argument(
@@ -244,8 +262,22 @@ def add_parser(subparsers: Any) -> None:
     p.set_defaults(handler=_command)
 
 
+def _check_report_path(out: Path) -> None:
+    """ValueError naming ``--out`` unless a report can be written at ``out`` (checked
+    before any benchmark runs, so a typo does not cost ten minutes)."""
+    from aiocram._outputs import check_out_dir
+
+    if out.is_dir():
+        raise ValueError(f"--out {out}: is a directory; give a file name such as {out}/BENCH.md")
+    check_out_dir(out.parent)
+    if out.exists() and not os.access(out, os.W_OK):
+        raise ValueError(f"--out {out}: is not writable")
+
+
 def _command(args: argparse.Namespace) -> int:
     try:
+        if not args.no_report:
+            _check_report_path(Path(args.out))
         results = run_benchmarks(
             args.names or None,
             None if args.no_report else Path(args.out),
@@ -253,7 +285,7 @@ def _command(args: argparse.Namespace) -> int:
             campaign=Path(args.campaign) if args.campaign else None,
         )
     except ValueError as exc:
-        print(f"aiocram bench: {exc}", file=sys.stderr)
+        print(f"aiocram bench: error: {exc}", file=sys.stderr)
         return 2
     return 0 if all(r["returncode"] == 0 for r in results) else 1
 

@@ -18,6 +18,8 @@ from collections.abc import Callable, Sequence
 from importlib import metadata
 from typing import Any
 
+from aiocram._help import HelpFormatter
+
 __all__ = ["build_parser", "main"]
 
 _Subparsers = Any  # argparse's _SubParsersAction is private
@@ -44,19 +46,25 @@ def _add_show(subparsers: _Subparsers) -> None:
     p = subparsers.add_parser(
         "show",
         help="draw the task tree of a recorded run",
-        description="Draw the final task tree of a run recorded as a JSON-lines event log.",
+        description="Draw the final task tree of a run recorded as a JSON-lines event log "
+        "(e.g. aiocram show --collapse out/demo/log.jsonl).",
+        formatter_class=HelpFormatter,
     )
     p.add_argument("log", metavar="LOG", help="event log file written by cpl's EventLog")
     p.add_argument("--ascii", action="store_true", help="ASCII glyphs and tree guides only")
     p.add_argument(
-        "--max-nodes", type=_positive, default=None, metavar="N", help="draw at most N tasks"
+        "--max-nodes",
+        type=_positive,
+        default=None,
+        metavar="N",
+        help="draw at most N tasks (default: all)",
     )
     p.add_argument(
         "--run",
         type=int,
         default=-1,
         metavar="I",
-        help="which run of the file to show (0 = first, -1 = last; default: last)",
+        help="which run of the file to show (0 = first, -1 = last)",
     )
     p.add_argument(
         "--collapse",
@@ -69,11 +77,12 @@ def _add_show(subparsers: _Subparsers) -> None:
 def _run_show(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from cpl._eventlog import tree_from_log
+    from cpl._eventlog import tree_from_log, truncated_tail
     from cpl.display import render, render_text
 
     try:
         tree = tree_from_log(args.log, run=args.run)
+        cut = truncated_tail(args.log)
     except FileNotFoundError:
         print(f"aiocram show: error: no such file: {args.log}", file=sys.stderr)
         return 2
@@ -92,6 +101,13 @@ def _run_show(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
     else:
         console.print(render(tree, max_nodes=args.max_nodes, collapse_finished=args.collapse))
+    if cut is not None:
+        print(
+            f"aiocram show: note: {args.log} ends in a line cut mid-write (line {cut}, left "
+            "out): the run crashed or was killed; the tree is as its last complete event "
+            "left it",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -137,9 +153,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _import_pybullet_quietly() -> None:
+    """Import pybullet without its ``pybullet build time`` banner on stderr (see
+    :mod:`projection._quiet`); a missing pybullet is left for the command to report."""
+    try:
+        from projection._quiet import import_pybullet_quietly
+
+        import_pybullet_quietly()
+    except ImportError:
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``aiocram`` command; returns the exit code."""
-    args = build_parser().parse_args(argv)
+    """Entry point of the ``aiocram`` command; returns the exit code (2 for bad
+    arguments, as argparse reports them, without raising ``SystemExit``)."""
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error already printed
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    _import_pybullet_quietly()
     handler: Callable[[argparse.Namespace], int] = args.handler
     return handler(args)
 

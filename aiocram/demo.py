@@ -38,6 +38,11 @@ PARK_TOLERANCE = 0.05
 START_TOLERANCE = 0.15
 
 
+class DemoConfigError(ValueError):
+    """A :class:`DemoConfig` field (a command-line flag) is wrong; the message names the
+    flag and says what to give instead. Raised before anything is written or moved."""
+
+
 @dataclass
 class DemoConfig:
     """What to run. ``faults``: a :class:`projection.FaultProfile`, its command-line text
@@ -54,6 +59,41 @@ class DemoConfig:
     out: Path | None = None
     live: bool = True
 
+    def check(self) -> None:
+        """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
+        nothing: :func:`run_demo` calls it before it writes a file or builds a world."""
+        from aiocram._outputs import OutputError, check_out_dir
+
+        unknown = [o for o in self.objects if o not in DEFAULT_OBJECTS]
+        if unknown:
+            raise DemoConfigError(
+                f"--objects: unknown objects {unknown}; the demo knows "
+                f"{' '.join(DEFAULT_OBJECTS)}"
+            )
+        if not self.objects:
+            raise DemoConfigError("--objects: give at least one object")
+        twice = sorted({o for o in self.objects if self.objects.count(o) > 1})
+        if twice:
+            raise DemoConfigError(f"--objects: each object at most once, got {twice} twice")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise DemoConfigError(f"--seed must be a whole number >= 0, got {self.seed!r}")
+        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
+            raise DemoConfigError(f"--runs must be a whole number >= 1, got {self.runs!r}")
+        if self.speed is not None and not (
+            isinstance(self.speed, int | float) and self.speed > 0 and not math.isnan(self.speed)
+        ):
+            raise DemoConfigError(
+                f"--speed must be 'max' or a number > 0 (1 = real time), got {self.speed!r}"
+            )
+        _faults(self)  # raises DemoConfigError for a bad profile
+        if self.gui and not os.environ.get("DISPLAY"):
+            raise DemoConfigError("--gui needs a display (DISPLAY is not set); drop --gui")
+        if self.out is not None:
+            try:
+                check_out_dir(Path(self.out))
+            except OutputError as exc:
+                raise DemoConfigError(str(exc)) from None
+
 
 @dataclass
 class DemoReport:
@@ -69,6 +109,12 @@ class DemoReport:
     imagined_wall_s: dict[str, float] = field(default_factory=dict)
     real_sim_s: dict[str, float] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
+    #: True when Ctrl-C ended the run early (the outcomes are those of the objects done).
+    interrupted: bool = False
+    #: The run's root task (dead), for the final tree.
+    root: Any = None
+    #: Evaporated tasks whose cleanup raised (``cpl.cleanup_failures``; each is logged).
+    cleanup_failures: int = 0
 
     @property
     def delivered(self) -> int:
@@ -121,18 +167,39 @@ class _Watch(cpl.Instrument):
 
 
 def _faults(config: DemoConfig) -> Any:
+    """The fault profile of ``config`` (DemoConfigError naming ``--faults`` if bad)."""
+    from dataclasses import replace
+
     from projection import FaultProfile
 
     if config.faults is None:
         return FaultProfile(seed=config.seed)
-    if isinstance(config.faults, str):
+    if isinstance(config.faults, FaultProfile):
+        return config.faults
+    if not isinstance(config.faults, str):
+        raise DemoConfigError(
+            f"--faults takes a FaultProfile or its text ('0.1', 'ik=0.2'), got {config.faults!r}"
+        )
+    try:
+        bare = float(config.faults)
+    except ValueError:
+        bare = None
+    if bare is not None and not 0.0 <= bare <= 1.0:
+        raise DemoConfigError(
+            f"--faults {config.faults}: a fault rate is a probability from 0 to 1 (e.g. "
+            "--faults 0.1, or per kind: --faults navigation=0.05,ik=0.1)"
+        )
+    try:
         profile = FaultProfile.parse(config.faults)
-        if "seed=" not in config.faults:
-            from dataclasses import replace
-
-            profile = replace(profile, seed=config.seed)
-        return profile
-    return config.faults
+    except (TypeError, ValueError) as exc:
+        text = str(exc).replace("FaultProfile.", "")
+        raise DemoConfigError(
+            f"--faults {config.faults!r}: {text} (rates are probabilities from 0 to 1, "
+            "e.g. --faults 0.1 or --faults navigation=0.05,ik=0.1)"
+        ) from None
+    if "seed=" not in config.faults:
+        profile = replace(profile, seed=config.seed)
+    return profile
 
 
 def _invariants(
@@ -227,88 +294,93 @@ def _walk(task: cpl.Task) -> list[cpl.Task]:
     return out
 
 
-def _costmaps_used(root: cpl.Task, limit: int = 5) -> list[Any]:
-    """The robot-location designators the real run navigated to, one per chain."""
-    from executive import action_of
-
-    found: list[Any] = []
-    seen: set[int] = set()
-    for task in _walk(root):
-        action = action_of(task)
-        if action is None or action.type != "navigating" or task.state is not cpl.Status.SUCCEEDED:
-            continue
-        if any(p.startswith("projection-run") for p in task.path):
-            continue
-        loc = action.get("location")
-        if loc is None or not hasattr(loc, "first") or loc.get("pose") is not None:
-            continue
-        first = loc.first()
-        if id(first) in seen:
-            continue
-        seen.add(id(first))
-        found.append(loc)
-        if len(found) >= limit:
-            break
-    return found
+#: Files of a demo run in ``--out``, in the order the summary lists them; ``costmap-*``
+#: come after. Older runs' files of these kinds are replaced when the run ends.
+OUTPUT_FILES = ("log.jsonl", "plans.log", "final_scene.png", "robot_view.png")
+_STALE = (*OUTPUT_FILES, "costmap-*.png")
 
 
-def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
-    """Run the demo as configured; write its files if ``config.out`` is set."""
+def run_demo(
+    config: DemoConfig, console: Any = None, *, interrupts: Any = None
+) -> DemoReport:
+    """Run the demo as configured; write its files if ``config.out`` is set.
+
+    Every field is checked first (:meth:`DemoConfig.check`): a bad one raises
+    :class:`DemoConfigError` before any file is touched. The files are written to a
+    staging directory inside ``out`` and moved into place when the run ends (also when it
+    failed or was interrupted), so until then ``out`` keeps the previous run's files.
+
+    ``interrupts``: an :class:`aiocram._interrupt.Interrupts` that owns Ctrl-C (the
+    command passes one); the run attaches its root task to it, so a Ctrl-C evaporates
+    the plan and the report comes back with ``interrupted=True``."""
+    config.check()
     import plans
     from plans.demo import table_setting
     from projection import make_world_pair, real_robot_clock, with_real_robot
 
+    from ._figures import CameraRecorder, CostmapRecorder
+    from ._outputs import OutputError, Outputs
+    from ._views import DemoView, Progress
+
     del plans  # imported for its action rules
-    if config.runs < 1:
-        raise ValueError(f"--runs must be at least 1, got {config.runs}")
-    unknown = [o for o in config.objects if o not in DEFAULT_OBJECTS]
-    if unknown:
-        raise ValueError(f"unknown objects {unknown}; the demo knows {list(DEFAULT_OBJECTS)}")
     faults = _faults(config)
     watch = _Watch()
-    instruments: list[cpl.Instrument] = [watch]
-    files: list[Path] = []
+    progress = Progress(config.objects)
+    instruments: list[cpl.Instrument] = [watch, progress]
+    outputs: Outputs | None = None
     if config.out is not None:
-        config.out.mkdir(parents=True, exist_ok=True)
-        log = config.out / "log.jsonl"
-        log.write_text("")
-        instruments.append(cpl.EventLog(log))
-        files.append(log)
-    restore_logging = _route_plan_logs(config.out)
-    true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
+        try:  # the first write: a directory that cannot be made is the user's to fix
+            outputs = Outputs(Path(config.out), stale=_STALE)
+        except OutputError as exc:
+            raise DemoConfigError(str(exc)) from None
+        if interrupts is not None:
+            interrupts.on_abort = lambda: outputs.commit(OUTPUT_FILES)
+        instruments.append(cpl.EventLog(outputs.path("log.jsonl")))
+    restore_logging = _route_plan_logs(None if outputs is None else outputs.path("plans.log"))
+    true_world = belief_world = None
     outcomes: dict[str, Any] = {}
+    engine_box: list[Any] = []
 
-    async def main() -> dict[str, Any]:
-        from cpl.display import LiveTaskTree
+    async def main() -> None:
+        from executive import current_environment
+        from projection._locations import costmaps_of
 
         root = cpl.current_task()
         assert root is not None
-        async with with_real_robot(true_world, belief_world, faults=faults, speed=config.speed):
+        if interrupts is not None:
+            interrupts.attach(root)
+        from projection._locations import location_rules
+
+        rules = location_rules(belief_world)
+        if outputs is not None:  # note every candidate pose, for the costmap pictures
+            rules = costmaps.recording(rules)
+        async with with_real_robot(
+            true_world, belief_world, faults=faults, speed=config.speed, rules=rules
+        ):
+            engine_box.append(costmaps_of(current_environment().rules))
+            plan = table_setting(
+                true_world,
+                config.objects,
+                random=True,
+                seed=config.seed,
+                projection_reasoning=config.projection,
+                projection_runs=config.runs,
+                spawn=False,
+                outcomes=outcomes,
+            )
             if config.live:
-                async with LiveTaskTree(root, console=console, refresh_per_second=4):
-                    result = await table_setting(
-                        true_world,
-                        config.objects,
-                        random=True,
-                        seed=config.seed,
-                        projection_reasoning=config.projection,
-                        projection_runs=config.runs,
-                        spawn=False,
-                    )
+                async with DemoView(root, progress, console=console, refresh_per_second=4):
+                    await plan
             else:
-                result = await table_setting(
-                    true_world,
-                    config.objects,
-                    random=True,
-                    seed=config.seed,
-                    projection_reasoning=config.projection,
-                    projection_runs=config.runs,
-                    spawn=False,
-                )
-        return dict(result)
+                await plan
 
     t0 = time.perf_counter()
     try:
+        true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
+        camera = CameraRecorder(true_world)
+        costmaps = CostmapRecorder(belief_world)
+        if outputs is not None:  # they record for the pictures only
+            instruments += [camera, costmaps]
         spawned = _set_up_scene(true_world, config)
         root_box: list[cpl.Task] = []
 
@@ -316,7 +388,7 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
             def run_started(self, root: cpl.Task) -> None:
                 root_box.append(root)
 
-        outcomes = cpl.run(
+        cpl.run(
             main,
             name="demo",
             clock=real_robot_clock(config.speed),
@@ -324,18 +396,34 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
         )
         wall = time.perf_counter() - t0
         root = root_box[0]
+        interrupted = interrupts is not None and interrupts.interrupted
         sim = (root.end_time or 0.0) - (root.start_time or 0.0)
         invariants, violations = _invariants(true_world, spawned, watch)
         real_sim, imagined = _transport_times(root, watch)
-        if config.out is not None:
-            files.extend(_write_pictures(config.out, true_world, belief_world, root))
-        return DemoReport(
-            config, outcomes, invariants, violations, sim, wall, imagined, real_sim, files
+        if outputs is not None:
+            _write_pictures(outputs, true_world, camera, costmaps, engine_box)
+        report = DemoReport(
+            config,
+            outcomes,
+            invariants,
+            violations,
+            sim,
+            wall,
+            imagined,
+            real_sim,
+            [],
+            interrupted=interrupted,
+            root=root,
+            cleanup_failures=len(cpl.cleanup_failures(root)),
         )
     finally:
         restore_logging()
-        true_world.close()
-        belief_world.close()
+        files = [] if outputs is None else outputs.commit(OUTPUT_FILES)
+        for world in (true_world, belief_world):
+            if world is not None:
+                world.close()
+    report.files = files
+    return report
 
 
 def _set_up_scene(true_world: Any, config: DemoConfig) -> dict[str, Any]:
@@ -354,46 +442,53 @@ def _set_up_scene(true_world: Any, config: DemoConfig) -> dict[str, Any]:
     return {name: true_world.object_pose(name) for name in spawned}
 
 
-def _route_plan_logs(out: Path | None) -> Callable[[], None]:
-    """Plans log every retry ("Relocating", "No samples left"...); during the demo these go
-    to ``OUT/plans.log`` (nowhere without ``--out``) so that the console shows the live tree
-    and the summary. Returns the function that undoes this."""
+def _route_plan_logs(path: Path | None) -> Callable[[], None]:
+    """Plans log every retry (``plans.retries``: each one a ``CountedRetries`` grants or
+    refuses, INFO) and every failure a retry scope handles (WARNING); during the demo
+    these go to ``path`` (``OUT/plans.log``; nowhere without ``--out``) at INFO, so that
+    the console shows the live view and the summary. Returns the function that undoes
+    this."""
     import logging
 
     handler: logging.Handler
-    if out is not None:
-        handler = logging.FileHandler(out / "plans.log", mode="w")
+    if path is not None:
+        handler = logging.FileHandler(path, mode="w", encoding="utf-8")
         handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     else:
         handler = logging.NullHandler()
-    loggers = [logging.getLogger(name) for name in ("plans", "executive", "projection")]
-    saved = [(lg, lg.propagate) for lg in loggers]
+    loggers = [logging.getLogger(name) for name in ("plans", "executive", "projection", "cpl")]
+    saved = [(lg, lg.propagate, lg.level) for lg in loggers]
     for lg in loggers:
         lg.propagate = False
+        lg.setLevel(logging.INFO)
         lg.addHandler(handler)
 
     def undo() -> None:
-        for lg, propagate in saved:
+        for lg, propagate, level in saved:
             lg.removeHandler(handler)
             lg.propagate = propagate
+            lg.setLevel(level)
         handler.close()
 
     return undo
 
 
-def _write_pictures(out: Path, true_world: Any, belief_world: Any, root: cpl.Task) -> list[Path]:
+def _write_pictures(
+    outputs: Any, true_world: Any, camera: Any, costmaps: Any, engine_box: list[Any]
+) -> None:
+    """The final scene (true world), the head camera at the last detection, and the
+    costmaps the real run navigated by (see :mod:`aiocram._figures`). A picture that
+    cannot be drawn is reported on stderr: a picture never fails the demo."""
     from projection import render
 
-    paths = [
-        render.scene(true_world, out / "final_scene.png"),
-        render.scene(true_world, out / "robot_view.png", camera="robot"),
-    ]
-    for i, loc in enumerate(_costmaps_used(root)):
-        try:
-            paths.append(render.costmap(loc, out / f"costmap-{i + 1}.png", world=belief_world))
-        except Exception as exc:  # a picture must never fail the demo
-            print(f"(costmap {i + 1} not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
-    return paths
+    try:
+        render.scene(true_world, outputs.path("final_scene.png"))
+        camera.write(outputs.path("robot_view.png"))
+    except Exception as exc:  # reported; the run's outcome stands
+        print(f"(pictures not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
+    engine = engine_box[0] if engine_box else None
+    if engine is not None:
+        costmaps.figures(engine, outputs.staging)
 
 
 def run_demo_once(
@@ -421,100 +516,233 @@ def run_demo_once(
     return record
 
 
+def _retries_text(retries: dict[str, int]) -> str:
+    """``"61: detecting 56, search 3, …"``: the total, then the kinds most granted first
+    (the console cuts what does not fit; plans.log and the JSON have every one)."""
+    granted = {k: v for k, v in retries.items() if v}
+    if not granted:
+        return "-"
+    kinds = sorted(granted.items(), key=lambda kv: (-kv[1], kv[0]))
+    return f"{sum(granted.values())}: " + ", ".join(f"{k} {v}" for k, v in kinds)
+
+
 def _print_report(report: DemoReport, console: Any) -> None:
     from rich.table import Table
 
+    from ._views import final_tree
+
+    if report.root is not None:
+        log = next((str(p) for p in report.files if p.name == "log.jsonl"), None)
+        console.print(final_tree(report.root))
+        if log is not None:
+            console.print(
+                f"the whole tree: aiocram show --collapse {log}",
+                soft_wrap=True,
+                markup=False,
+                highlight=False,
+                style="dim",
+            )
     table = Table(
         title=f"table setting, seed {report.config.seed}"
-        f" ({'with' if report.config.projection else 'without'} projection reasoning)"
+        f" ({'with' if report.config.projection else 'without'} projection reasoning)",
+        caption="dist: m driven · sim: simulated s · imag: wall s imagining",
     )
-    for col in (
-        "object",
-        "outcome",
-        "retries",
-        "distance (m)",
-        "real time (s)",
-        "imagined (wall s)",
-    ):
-        table.add_column(col)
+    # fits 80 columns: long cells are cut with an ellipsis, never wrapped into towers
+    # fixed widths: 80 columns in all (the JSON and plans.log have the whole text)
+    for header, width in (("object", 16), ("outcome", 12), ("retries", 10)):
+        table.add_column(header, no_wrap=True, overflow="ellipsis", width=width)
+    for header in ("dist (m)", "sim (s)", "imag (s)"):
+        table.add_column(header, justify="right", no_wrap=True, width=len(header))
     for name, o in report.outcomes.items():
-        outcome = "[green]placed[/]" if o.success else f"[red]{type(o.failure).__name__}[/]"
-        retries = ", ".join(f"{k} {v}" for k, v in sorted(o.retries.items()) if v) or "-"
+        if o.success:
+            outcome = "[green]placed[/]"
+        elif o.failure is None:
+            outcome = "[grey50]interrupted[/]"
+        else:
+            outcome = f"[red]{type(o.failure).__name__}[/]"
         table.add_row(
             name,
             outcome,
-            retries,
+            _retries_text(o.retries),
             f"{o.distance:.2f}",
             f"{report.real_sim_s.get(name, 0.0):.1f}",
             f"{report.imagined_wall_s.get(name, 0.0):.2f}",
         )
     console.print(table)
+    kinds = [(name, _retries_text(o.retries)) for name, o in report.outcomes.items()]
+    kinds = [(name, text.split(": ", 1)[1]) for name, text in kinds if text != "-"]
+    if kinds:
+        console.print("retries by kind (each one is in plans.log):")
+        for name, text in kinds:
+            console.print(f"  {name}: {text}", highlight=False)
+    n = len(report.config.objects)
+    if report.interrupted:
+        console.print(
+            f"interrupted by Ctrl-C during object {len(report.outcomes)} of {n}: the plan was "
+            "evaporated and its cleanup ran"
+        )
     console.print(
-        f"{report.delivered}/{len(report.outcomes)} objects placed; simulated "
-        f"{report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time"
+        f"{report.delivered}/{n} objects placed; simulated {report.sim_time_s:.1f} s in "
+        f"{report.wall_time_s:.1f} s wall time"
     )
+    if report.cleanup_failures:
+        where = " (each in plans.log)" if report.files else ""
+        console.print(
+            f"[red]{report.cleanup_failures} cleanup failure(s)[/]: the cleanup of an "
+            f"evaporated task raised{where}"
+        )
     bad = {k: report.violations.get(k, "") for k, v in report.invariants.items() if not v}
     if bad:
         console.print(f"[red]invariants violated:[/] {bad}")
     else:
         console.print("invariants hold: " + ", ".join(report.invariants))
-    for path in report.files:
-        console.print(f"wrote {path}")
+    for path in report.files:  # whole, so that it can be copied
+        console.print(f"wrote {path}", soft_wrap=True, markup=False, highlight=False)
+
+
+# ----------------------------------------------------------------------- command line
+def _speed_arg(text: str) -> float | None:
+    if text.strip().lower() in ("max", "inf"):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(
+            f"must be 'max' or a number > 0 (1 = real time), got {text!r}"
+        )
+    return value
+
+
+def _whole(minimum: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if value < minimum:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number >= {minimum}, got {text!r}"
+            )
+        return value
+
+    return parse
 
 
 def add_parser(subparsers: Any) -> None:
+    from aiocram._help import HelpFormatter
+
     p = subparsers.add_parser(
-        "demo", help="table setting: projection-then-execute on the simulated real robot"
+        "demo",
+        help="table setting: projection-then-execute on the simulated real robot",
+        description=(
+            "Set the kitchen island's table on the simulated real robot: before each "
+            "transport the robot imagines it --runs times in projection and executes the "
+            "cheapest plan. Writes the event log, plans.log and pictures to --out. Exit "
+            "status: 0 all invariants hold, 1 one was violated, 2 bad arguments, "
+            "3 internal error, 130 interrupted (Ctrl-C)."
+        ),
+        formatter_class=HelpFormatter,
     )
     p.add_argument(
         "--objects",
         nargs="+",
         default=list(DEFAULT_OBJECTS),
-        help=f"objects to set (default: {' '.join(DEFAULT_OBJECTS)})",
+        choices=DEFAULT_OBJECTS,
+        metavar="OBJECT",
+        help=f"objects to set, in this order; any of: {' '.join(DEFAULT_OBJECTS)}",
     )
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--runs", type=int, default=3, help="imagined runs per transport")
-    p.add_argument("--no-projection", action="store_true", help="execute without imagining")
+    p.add_argument(
+        "--seed",
+        type=_whole(0),
+        default=1,
+        help="seeds the scene, the sampling and the faults (whole number >= 0)",
+    )
+    p.add_argument(
+        "--runs", type=_whole(1), default=3, help="imagined runs per transport (>= 1)"
+    )
+    p.add_argument(
+        "--no-projection",
+        action="store_true",
+        help="execute without imagining first",
+    )
     p.add_argument(
         "--faults",
         default=None,
-        help="fault profile: a uniform rate ('0.1') or 'navigation=0.05,ik=0.1'",
+        metavar="PROFILE",
+        help="faults to inject: a rate for every kind ('0.1') or 'navigation=0.05,ik=0.1' "
+        "(kinds: navigation, ptu, perception, grasp_slip, drop, ik; also miss_rate, "
+        "detection_noise=POS:YAW, seed); default: detection noise only",
     )
     p.add_argument(
         "--speed",
+        type=_speed_arg,
         default="max",
-        help="simulated time vs wall clock: 'max' (default), 1 (real time), 5, ...",
+        help="simulated seconds per wall second: 'max' (as fast as possible), "
+        "1 (real time), 5, ...",
     )
     p.add_argument("--gui", action="store_true", help="show the true world in a PyBullet GUI")
-    p.add_argument("--out", default="out/demo", help="directory for the log and pictures")
-    p.add_argument("--no-live", action="store_true", help="no live task tree")
+    p.add_argument(
+        "--out",
+        default="out/demo",
+        metavar="DIR",
+        help="directory for log.jsonl, plans.log and the pictures (replaced when the run "
+        "ends; a bad argument leaves it untouched)",
+    )
+    p.add_argument(
+        "--no-live",
+        action="store_true",
+        help="no live view (for logs and pipes); the summary is printed still",
+    )
     p.set_defaults(handler=_command)
 
 
+EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
+
 def _command(args: argparse.Namespace) -> int:
+    import traceback
+
     from rich.console import Console
 
+    from ._interrupt import EXIT_INTERRUPTED, Interrupts
+
     console = Console()
+    config = DemoConfig(
+        objects=tuple(args.objects),
+        seed=args.seed,
+        runs=args.runs,
+        projection=not args.no_projection,
+        faults=args.faults,
+        speed=args.speed,
+        gui=args.gui,
+        out=Path(args.out),
+        live=not args.no_live,
+    )
     try:
-        speed = None if args.speed in ("max", "inf") else float(args.speed)
-        if speed is not None and not (speed > 0 and math.isfinite(speed)):
-            raise ValueError(f"--speed must be 'max' or a positive number, got {args.speed!r}")
-        config = DemoConfig(
-            objects=tuple(args.objects),
-            seed=args.seed,
-            runs=args.runs,
-            projection=not args.no_projection,
-            faults=args.faults,
-            speed=speed,
-            gui=args.gui,
-            out=Path(args.out),
-            live=not args.no_live,
+        config.check()
+    except DemoConfigError as exc:
+        print(f"aiocram demo: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        with Interrupts() as interrupts:
+            report = run_demo(config, console=console, interrupts=interrupts)
+    except DemoConfigError as exc:  # e.g. --out could not be created after all
+        print(f"aiocram demo: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:  # Ctrl-C before the plan started (building the worlds)
+        print("aiocram demo: interrupted before the robot started", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception:  # a bug, not the user's input: say so, with the trace
+        traceback.print_exc()
+        print(
+            f"aiocram demo: internal error (a bug, not your input); the files written so "
+            f"far are in {config.out}",
+            file=sys.stderr,
         )
-        if args.gui and not os.environ.get("DISPLAY"):
-            raise ValueError("--gui needs a display (DISPLAY is not set); drop --gui")
-        report = run_demo(config, console=console)
-    except ValueError as exc:
-        print(f"aiocram demo: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INTERNAL
     _print_report(report, console)
-    return 0 if all(report.invariants.values()) else 1
+    if report.interrupted:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if all(report.invariants.values()) else EXIT_VIOLATED

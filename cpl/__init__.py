@@ -9,8 +9,9 @@ modules behind it are private.
 
 from typing import Any
 
+from ._cleanup import cleanup_failures
 from ._clock import Clock, ScaledClock, SystemClock, current_clock
-from ._eventlog import EventLog, load_events, tree_from_log
+from ._eventlog import EventLog, load_events, tree_from_log, truncated_tail
 from ._failure_handling import (
     Error,
     RetryCounter,
@@ -96,6 +97,7 @@ __all__ = [
     "Task",
     "TaskNode",
     "ancestors",
+    "cleanup_failures",
     "current_clock",
     "current_task",
     "fail",
@@ -132,6 +134,7 @@ __all__ = [
     "timeout_policy",
     "top_level",
     "tree_from_log",
+    "truncated_tail",
     "try_all",
     "try_each_in_order",
     "try_in_order",

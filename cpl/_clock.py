@@ -271,5 +271,31 @@ class ScaledClock(_VirtualClock):
             )
         self.factor = math.inf if factor is None else float(factor)
 
+    def set_factor(self, factor: float | None) -> None:
+        """Change the speed from now on: time so far is kept, timers keep their deadlines
+        (a pending 10 s sleep started at factor 1 ends after the remaining simulated time
+        at the new speed); ``None``/``math.inf`` = as fast as possible. Call it on the
+        loop's thread (e.g. from ``loop.call_soon_threadsafe``): it wakes a loop waiting
+        at the old speed. Raises ``ValueError`` as the constructor does."""
+        if factor is not None and factor != math.inf and not factor > 0:
+            raise ValueError(
+                f"ScaledClock factor must be > 0 (or None/math.inf for as fast as possible), "
+                f"got {factor!r}"
+            )
+        with self._lock:
+            self._base = self.now()
+            self._real_start = time.monotonic()
+            if factor is None or factor == math.inf:
+                self._rate, self._autojump = 0.0, True
+            else:
+                self._rate, self._autojump = float(factor), False
+        self.factor = math.inf if factor is None else float(factor)
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            try:
+                loop.call_soon_threadsafe(_noop)
+            except RuntimeError:  # closed meanwhile: nothing to wake
+                pass
+
     def __repr__(self) -> str:
         return f"ScaledClock({self.factor!r}, now={self.now()!r})"

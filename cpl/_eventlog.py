@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from ._fluents import Fluent
     from ._task import Task
 
-__all__ = ["EVENT_SCHEMA", "EventLog", "load_events", "tree_from_log"]
+__all__ = ["EVENT_SCHEMA", "EventLog", "load_events", "tree_from_log", "truncated_tail"]
 
 EVENT_SCHEMA = "aiocram.events/1"
 """Version tag written in every event line."""
@@ -255,26 +255,56 @@ def load_events(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
 
     Lines written through a logger may carry a prefix from the handler's format: the JSON
     object is taken from the first ``{``. Blank lines and lines without a JSON object are
-    skipped; a JSON object with a foreign ``schema`` raises ``ValueError`` naming it.
+    skipped; a JSON object with a foreign ``schema`` raises ``ValueError`` naming it. A
+    last line cut mid-write (no line end, not valid JSON: how the log of a crashed or
+    killed run ends) is left out; :func:`truncated_tail` tells whether there is one. A
+    malformed line anywhere else raises ``ValueError`` naming the line.
     """
     events: list[dict[str, Any]] = []
     with open(path, encoding="utf-8") as f:
-        for lineno, line in enumerate(f, 1):
-            start = line.find("{")
-            if start < 0:
+        lines = f.readlines()
+    cut = _cut_line(lines)
+    for lineno, line in enumerate(lines, 1):
+        start = line.find("{")
+        if start < 0:
+            continue
+        where = f"{os.fspath(path)}:{lineno}"
+        try:
+            event = json.loads(line[start:])
+        except json.JSONDecodeError as exc:
+            if lineno == cut:
                 continue
-            where = f"{os.fspath(path)}:{lineno}"
-            try:
-                event = json.loads(line[start:])
-            except json.JSONDecodeError as exc:
-                if start == 0:
-                    raise ValueError(f"{where}: not a JSON event line: {exc}") from exc
-                continue
-            if not isinstance(event, dict):
-                continue
-            _check_schema(event, where)
-            events.append(event)
+            if start == 0:
+                raise ValueError(f"{where}: not a JSON event line: {exc}") from exc
+            continue
+        if not isinstance(event, dict):
+            continue
+        _check_schema(event, where)
+        events.append(event)
     return events
+
+
+def _cut_line(lines: list[str]) -> int | None:
+    """The number of the last line if it was cut mid-write: no line end and no complete
+    JSON object."""
+    if not lines or lines[-1].endswith("\n"):
+        return None
+    last = lines[-1]
+    start = last.find("{")
+    if start < 0:
+        return None
+    try:
+        json.loads(last[start:])
+    except json.JSONDecodeError:
+        return len(lines)
+    return None
+
+
+def truncated_tail(path: str | os.PathLike[str]) -> int | None:
+    """The line number of a log file's last line if it was cut mid-write (see
+    :func:`load_events`, which leaves it out), else ``None``."""
+    with open(path, encoding="utf-8") as f:
+        return _cut_line(f.readlines())
 
 
 _STATE_KEYS = (

@@ -17,6 +17,7 @@ from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
+from ._cleanup import log_cleanup_failures
 from ._clock import Clock
 from ._failure_handling import _Retry, _Return
 from ._instruments import Instrument, InstrumentSet
@@ -162,6 +163,7 @@ async def top_level(
             raise
     finally:
         _ACTIVE.discard(root)
+        log_cleanup_failures(root)  # otherwise seen only in the recorded tree
         if name is not None:
             (history or DEFAULT_HISTORY).record(name, root)
         for hook in run_.instruments.run_finished:

@@ -410,7 +410,10 @@ class Task:
                     reraise = exc
         self._finish(outcome)
         if reraise is not None:
-            raise reraise
+            try:
+                raise reraise
+            finally:
+                del reraise  # no failure -> traceback -> frame -> failure cycle
 
     async def _run_inline(self) -> Any:
         """Run this CREATED task's body in the calling asyncio task and join it: its value,
@@ -480,6 +483,12 @@ class Task:
             self._close_aw()
         if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
             host.uncancel()  # the body swallowed its evaporation: take back our request
+        elif outcome is _FAILED and self.evaporation is None and host.cancelling():
+            # An ancestor's evaporation unwound this task and its cleanup raised: the task
+            # failed in its cleanup (recorded, and logged at the run's end, as for a task of
+            # its own), and the ancestor's evaporation goes on instead of that failure.
+            self.evaporation = Evaporated("its parent was evaporated", parent.path)
+            reraise = asyncio.CancelledError()
         if outcome is not _SUCCEEDED:
             self.result = None
         self._body_done = True
@@ -493,7 +502,10 @@ class Task:
         self._inline_parent = None
         self._finish(outcome)
         if reraise is not None:
-            raise reraise
+            try:
+                raise reraise
+            finally:
+                del reraise  # no failure -> traceback -> frame -> failure cycle
         if parent._state is _SUSPENDED:
             # The parent was suspended while this child ran in its place: its code must
             # not go on before it is woken.
@@ -502,7 +514,12 @@ class Task:
             failure = self.failure
             assert failure is not None
             signal_failure(failure)
-            raise failure
+            try:
+                raise failure
+            finally:
+                # No local of this frame may hold the failure: failure -> traceback ->
+                # frame -> failure would be a cycle only a full collection frees.
+                del failure
         return self.result
 
     def _close_aw(self) -> None:

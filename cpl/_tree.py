@@ -546,8 +546,8 @@ def _finished_size(task: TaskLike) -> int | None:
     stack = [task]
     while stack:
         t = stack.pop()
-        if t.state.alive:
-            return None
+        if t.state.alive or t.state is Status.FAILED:
+            return None  # alive tasks and failures (even recovered ones) stay visible
         count += 1
         stack.extend(t.children)
     return count
@@ -560,8 +560,9 @@ def snapshot(
 
     Pure: reads the tasks, changes nothing. Call it on the event loop (between two awaits
     the tree cannot change). ``collapse_finished`` folds every child subtree that finished
-    without failing (status succeeded or evaporated, nothing alive below) into its
-    parent's ``collapsed`` count, so failures and alive tasks stay visible. ``max_nodes``
+    without any failure in it (status succeeded or evaporated, nothing alive or failed
+    below, so also a recovered failure keeps its path visible) into its parent's
+    ``collapsed`` count, so failures and alive tasks stay visible. ``max_nodes``
     keeps the first that many tasks in pre-order and counts the rest in ``truncated``.
     Folded and cut subtrees are only counted, not copied.
     """

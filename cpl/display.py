@@ -133,7 +133,8 @@ def _foldable_weight(node: TaskNode) -> int | None:
         return None
     total = 0
     for n in node.walk():
-        if n.status.alive or n.truncated:  # a cut subtree may hide alive tasks
+        # a cut subtree may hide alive tasks; failures (even recovered ones) stay visible
+        if n.status.alive or n.truncated or n.status is Status.FAILED:
             return None
         total += 1 + n.collapsed + n.truncated
     return total
@@ -149,8 +150,9 @@ def render(
 ) -> Tree:
     """Draw a snapshot as a :class:`rich.tree.Tree` (pure; does not touch live tasks).
 
-    ``collapse_finished`` folds each child subtree that finished without failing into a
-    "(+N finished)" line under its parent (failed and alive tasks stay visible; folds
+    ``collapse_finished`` folds each child subtree that finished without any failure in it
+    into a "(+N finished)" line under its parent (failed and alive tasks, also failures a
+    retry recovered from, stay visible with the path to them; folds
     already made by ``snapshot(collapse_finished=True)`` are drawn the same way).
     ``max_nodes`` draws at most that many tasks in pre-order and ends with "… N more".
     """

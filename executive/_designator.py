@@ -205,11 +205,15 @@ class Designator:
         "_index",
         "_parent",
         "_props",
+        "_repr",
         "_stream",
         "_successor",
     )
 
     _props: tuple[Pair, ...]
+    #: the repr, cached once computed when every property value is immutable (see
+    #: :func:`_stable`): the event log renders each designator at every task event
+    _repr: str | None
     _stream: _SolutionStream | None
     _index: int
     _data: Any
@@ -422,8 +426,14 @@ class Designator:
         return f"{self.kind} {text}{more}".rstrip() if text else f"{self.kind} (no properties)"
 
     def __repr__(self) -> str:
+        cached = self._repr
+        if cached is not None:
+            return cached
         props = " ".join(f"({k} {_fmt(v)})" for k, v in self._props)
-        return f"<{self.article} {self.kind}{' ' + props if props else ''}>"
+        text = f"<{self.article} {self.kind}{' ' + props if props else ''}>"
+        if all(_stable(v) for _, v in self._props):
+            object.__setattr__(self, "_repr", text)
+        return text
 
     def __rich__(self) -> Text:
         from rich.text import Text
@@ -445,6 +455,19 @@ class Designator:
         return text
 
 
+_STABLE_TYPES: Final = (str, int, float, bool, Pose, Transform)
+
+
+def _stable(value: Any) -> bool:
+    """Whether ``value``'s display can never change: None, a number, a string, a pose, or
+    a designator or tuple of such (designators are immutable)."""
+    if value is None or isinstance(value, _STABLE_TYPES):
+        return True
+    if isinstance(value, Designator):
+        return all(_stable(v) for _, v in value._props)
+    return type(value) is tuple and all(_stable(v) for v in value)
+
+
 def _fmt_short(value: Any) -> str:
     if isinstance(value, Designator):
         return f"<{value.short()}>"
@@ -454,6 +477,7 @@ def _fmt_short(value: Any) -> str:
 
 def _init(d: Designator, props: tuple[Pair, ...]) -> None:
     object.__setattr__(d, "_props", props)
+    object.__setattr__(d, "_repr", None)
     object.__setattr__(d, "_stream", None)
     object.__setattr__(d, "_index", 0)
     object.__setattr__(d, "_data", None)
@@ -643,7 +667,26 @@ def _rule_solutions(d: Designator, env: Environment) -> Iterator[Any]:
             f"{kind!r}, {type_!r}, fn)",
             d,
         )
+    _check_keys(d, kind, type_, rules)
     return _chain_rules(d, env, rules, _NORMALISE[kind])
+
+
+def _check_keys(d: Designator, kind: str, type_: str, rules: tuple[Rule, ...]) -> None:
+    """DesignatorError for a key no rule of ``d``'s kind and type reads, when they all
+    declare their keys (see :meth:`executive.RuleSet.register`)."""
+    declared = [r.keys for r in rules]
+    if not declared or any(k is None for k in declared):
+        return
+    known = {"type"}.union(*(k for k in declared if k is not None))
+    unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
+    if unknown:
+        article = "an" if kind in ("action", "object") else "a"
+        raise DesignatorError(
+            f"{d.short()}: unknown key{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(repr(k) for k in unknown)} for {article} {kind} of type {type_!r}; "
+            f"known keys: {', '.join(sorted(known))}",
+            d,
+        )
 
 
 def _chain_rules(

@@ -178,12 +178,16 @@ class Environment:
         *,
         priority: float = 0,
         replace: bool = False,
+        keys: Any = None,
     ) -> None:
-        """Add (or with ``replace=True`` override) a rule for this environment only."""
-        self._own_rules().register(kind, type, fn, priority=priority, replace=replace)
+        """Add (or with ``replace=True`` override) a rule for this environment only
+        (``keys``: see :meth:`executive.RuleSet.register`)."""
+        self._own_rules().register(kind, type, fn, priority=priority, replace=replace, keys=keys)
 
-    def register_location_generator(self, fn: Callable[..., Any], priority: float = 0) -> None:
-        self._own_rules().register_location_generator(fn, priority)
+    def register_location_generator(
+        self, fn: Callable[..., Any], priority: float = 0, *, keys: Any = None
+    ) -> None:
+        self._own_rules().register_location_generator(fn, priority, keys=keys)
 
     def register_location_validator(self, fn: Callable[..., Any], priority: float = 0) -> None:
         self._own_rules().register_location_validator(fn, priority)

@@ -91,6 +91,7 @@ def _pipeline(
     validators: tuple[Rule, ...],
     limit: int,
 ) -> Iterator[Pose]:
+    _check_location_keys(d, generators)
     rejected = 0
     for gen in generators:
         out = gen.call(d, env)
@@ -109,6 +110,24 @@ def _pipeline(
                 rejected += 1
                 if rejected >= limit:
                     return
+
+
+def _check_location_keys(d: Designator, generators: tuple[Rule, ...]) -> None:
+    """DesignatorError for a key no generator understands, when all declare their keys."""
+    declared = [g.keys for g in generators]
+    if not declared or any(k is None for k in declared):
+        return
+    known = set().union(*(k for k in declared if k is not None))
+    unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
+    if unknown:
+        raise DesignatorError(
+            f"{d.short()}: unknown key{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(repr(k) for k in unknown)} for a location: no location generator "
+            f"of this environment understands it (known keys: {', '.join(sorted(known))}); "
+            "fix the key, or register a generator for it with "
+            "register_location_generator(fn, keys=...)",
+            d,
+        )
 
 
 # ----------------------------------------------------------------------------- builtins
@@ -148,4 +167,6 @@ def _grounding_generator(d: Designator, env: Environment) -> Iterator[Pose]:
             yield env.world.object_pose(name)
 
 
-builtin_rules.register_location_generator(_grounding_generator, 10)
+builtin_rules.register_location_generator(
+    _grounding_generator, 10, keys=("pose", "of", "of-item-object")
+)

@@ -232,19 +232,38 @@ def perceived_object(d: Designator) -> Iterator[ObjectData]:
         )
 
 
-for _type, _fn in (
-    ("going", going),
-    ("moving-torso", moving_torso),
-    ("looking", looking),
-    ("detecting", detecting),
-    ("opening-gripper", _open_close("open")),
-    ("opening", _open_close("open")),
-    ("closing-gripper", _open_close("close")),
-    ("closing", _open_close("close")),
-    ("gripping", gripping),
-    ("moving-gripper-joint", moving_gripper_joint),
-    ("moving-tcp", moving_tcp),
-    ("moving-arm-joints", moving_arm_joints),
+_GRIPPER_KEYS = ("gripper",)
+for _type, _fn, _keys in (
+    ("going", going, ("pose", "target", "speed")),
+    ("moving-torso", moving_torso, ("joint-angle",)),
+    (
+        "looking",
+        looking,
+        ("pose", "target", "object", "frame", "direction", "joint-states"),
+    ),
+    ("detecting", detecting, ("object",)),
+    ("opening-gripper", _open_close("open"), _GRIPPER_KEYS),
+    ("opening", _open_close("open"), _GRIPPER_KEYS),
+    ("closing-gripper", _open_close("close"), _GRIPPER_KEYS),
+    ("closing", _open_close("close"), _GRIPPER_KEYS),
+    ("gripping", gripping, ("gripper", "effort")),
+    ("moving-gripper-joint", moving_gripper_joint, ("gripper", "joint-angle")),
+    (
+        "moving-tcp",
+        moving_tcp,
+        ("left-pose", "right-pose", "left-target", "right-target", "collision-mode"),
+    ),
+    (
+        "moving-arm-joints",
+        moving_arm_joints,
+        (
+            "left-joint-states",
+            "right-joint-states",
+            "left-configuration",
+            "right-configuration",
+        ),
+    ),
 ):
-    builtin_rules.register("motion", _type, _fn)
+    # keys declared: a motion with a key no rule reads fails to resolve, listing them
+    builtin_rules.register("motion", _type, _fn, keys=_keys)
 builtin_rules.register("object", WILDCARD, perceived_object, priority=1000)

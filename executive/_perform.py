@@ -67,10 +67,21 @@ async def _perform_motion(motion: MotionDesignator) -> Any:
     env = current_environment()
     candidates = [pm for pm in env.process_modules if pm._active and pm.accepts(motion)]
     if not candidates:
+        # a motion that cannot resolve (unknown type: the error lists the known ones; an
+        # unknown key or a bad value) says so rather than "no process module"
+        motion.reference()
         names = ", ".join(pm.name for pm in env.process_modules) or "none"
+        hint = ""
+        if not any(pm._active for pm in env.process_modules):
+            hint = (
+                "; motions need a robot: perform them inside `async with "
+                "projection.with_projected_robot(world):` (projection) or `async with "
+                "projection.with_real_robot(true_world, belief_world):` (the simulated "
+                "real robot), or your own environment's process modules"
+            )
         raise NoProcessModule(
             f"no running process module accepts {motion!r} (running in environment "
-            f"{env.name!r}: {names})",
+            f"{env.name!r}: {names}){hint}",
             motion=motion,
         )
     motion.reference()
@@ -82,7 +93,12 @@ async def _perform_motion(motion: MotionDesignator) -> Any:
             if first is None:
                 first = _unwrap(failure)
     assert first is not None
-    raise first
+    try:
+        raise first
+    finally:
+        # this frame is in ``first``'s traceback: drop the local, or failure -> traceback
+        # -> frame -> failure is a reference cycle only the cyclic collector frees
+        first = None
 
 
 async def _perform_action(action: ActionDesignator) -> Any:

@@ -15,22 +15,33 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["Pose", "Transform", "yaw_quaternion"]
 
 
+def _rotation_type() -> type[Rotation]:
+    """scipy's ``Rotation``, imported on first use: ``scipy.spatial`` costs ~0.2 s to
+    import (sparse matrices, k-d trees, qhull), more than the rest of ``import plans,
+    projection``, and most runs never build a ``Rotation``."""
+    from scipy.spatial.transform import Rotation
+
+    return cast("type[Rotation]", Rotation)
+
+
 def _vector(values: Iterable[float], n: int, what: str) -> tuple[float, ...]:
     try:
-        out = tuple(float(v) for v in values)
+        out = tuple(map(float, values))
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{what} must be {n} numbers, got {values!r}") from exc
     if len(out) != n:
         raise ValueError(f"{what} must have {n} components, got {len(out)}: {out!r}")
-    if not all(math.isfinite(v) for v in out):
+    if not all(map(math.isfinite, out)):
         raise ValueError(f"{what} must be finite, got {out!r}")
     return out
 
@@ -85,7 +96,7 @@ class Transform:
         """The rotation as a scipy ``Rotation`` (cached)."""
         rot = self._rotation
         if rot is None:
-            rot = Rotation.from_quat(self.rotation)
+            rot = _rotation_type().from_quat(self.rotation)
             object.__setattr__(self, "_rotation", rot)
         return rot
 
@@ -101,7 +112,7 @@ class Transform:
         m = np.asarray(m, dtype=float)
         if m.shape != (4, 4):
             raise ValueError(f"a homogeneous transform is 4x4, got shape {m.shape}")
-        quat = Rotation.from_matrix(m[:3, :3]).as_quat()
+        quat = _rotation_type().from_matrix(m[:3, :3]).as_quat()
         return cls(tuple(float(v) for v in m[:3, 3]), quat, frame, child_frame)
 
     def to_pose(self) -> Pose:
@@ -211,7 +222,7 @@ class Pose:
     def as_rotation(self) -> Rotation:
         rot = self._rotation
         if rot is None:
-            rot = Rotation.from_quat(self.orientation)
+            rot = _rotation_type().from_quat(self.orientation)
             object.__setattr__(self, "_rotation", rot)
         return rot
 

@@ -28,7 +28,7 @@ hot path is one dict lookup and one tuple comparison.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Final, TypeVar
@@ -89,10 +89,23 @@ class Rule:
     seq: int
     fn: Callable[..., Any]
     call: Callable[..., Any]
+    #: The property keys the rule understands (``type`` is always known), or ``None``: not
+    #: declared, any key accepted. See :meth:`RuleSet.register`.
+    keys: frozenset[str] | None = None
 
     @property
     def name(self) -> str:
         return str(getattr(self.fn, "__qualname__", repr(self.fn)))
+
+
+def _declared(keys: Iterable[str] | None) -> frozenset[str] | None:
+    """The ``keys=`` of a registration, in designator spelling (``joint_angle`` ->
+    ``joint-angle``)."""
+    if keys is None:
+        return None
+    if isinstance(keys, str):
+        raise TypeError(f"keys must be a collection of key names, got the string {keys!r}")
+    return frozenset(str(k).replace("_", "-") for k in keys)
 
 
 class RuleSet:
@@ -141,11 +154,19 @@ class RuleSet:
         *,
         priority: float = 0,
         replace: bool = False,
+        keys: Iterable[str] | None = None,
     ) -> F:
         """Register ``fn(designator[, environment])``, a generator of solutions, for
         designators of ``kind`` (``"action"``, ``"motion"``, ``"object"``) whose ``type``
         property is ``type`` (``"*"``: any type). ``replace=True`` hides the parent chain's
         rules for this pattern. Returns ``fn`` (so it works as a decorator body).
+
+        ``keys``: the property keys the rule reads (``type`` is implied). When every rule
+        for a designator's kind and type declares its keys, a designator with another key
+        (a typo such as ``objekt``) fails to resolve with a ``DesignatorError`` that lists
+        the known keys, before anything is performed (CRAM ignored unknown keys silently;
+        we differ on purpose). A rule registered without ``keys`` accepts any key: that is
+        how a rule explicitly allows keys it does not list.
 
         Solutions: actions yield ``(plan_function, arguments)``, motions
         ``(command, arguments)``, objects :class:`executive.ObjectData` (or anything with a
@@ -166,26 +187,40 @@ class RuleSet:
         key = (kind, type)
         if replace:
             self._replaced.add(key)
-        self._rules.setdefault(key, []).append(Rule(kind, type, priority, seq, fn, call))
+        self._rules.setdefault(key, []).append(
+            Rule(kind, type, priority, seq, fn, call, _declared(keys))
+        )
         return fn
 
     def rule(
-        self, kind: str, type: str, *, priority: float = 0, replace: bool = False
+        self,
+        kind: str,
+        type: str,
+        *,
+        priority: float = 0,
+        replace: bool = False,
+        keys: Iterable[str] | None = None,
     ) -> Callable[[F], F]:
         """Decorator form of :meth:`register`."""
 
         def deco(fn: F) -> F:
-            return self.register(kind, type, fn, priority=priority, replace=replace)
+            return self.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
 
         return deco
 
-    def register_location_generator(self, fn: F, priority: float = 0) -> F:
+    def register_location_generator(
+        self, fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+    ) -> F:
         """Register ``fn(designator[, environment])`` yielding candidate poses (possibly
         infinitely many). Generators run in ascending priority (CRAM: Prolog groundings at
-        10, costmaps at 20); their outputs are concatenated lazily."""
+        10, costmaps at 20); their outputs are concatenated lazily. ``keys``: the location
+        keys it understands; when every generator declares them, a location designator with
+        another key fails to resolve, listing the known ones (as :meth:`register`)."""
         call = _arity_adapter(fn, 1, "location generator")
         seq = self._bump()
-        self._generators.append(Rule("location", WILDCARD, priority, seq, fn, call))
+        self._generators.append(
+            Rule("location", WILDCARD, priority, seq, fn, call, _declared(keys))
+        )
         return fn
 
     def register_location_validator(self, fn: F, priority: float = 0) -> F:
@@ -305,19 +340,37 @@ builtin_rules: Final = RuleSet(parent=None, name="builtin")
 static_rules: Final = RuleSet(parent=builtin_rules, name="static")
 
 
-def register_rule(kind: str, type: str, fn: F, *, priority: float = 0, replace: bool = False) -> F:
+def register_rule(
+    kind: str,
+    type: str,
+    fn: F,
+    *,
+    priority: float = 0,
+    replace: bool = False,
+    keys: Iterable[str] | None = None,
+) -> F:
     """Register a rule in the static rule set (see :meth:`RuleSet.register`)."""
-    return static_rules.register(kind, type, fn, priority=priority, replace=replace)
+    return static_rules.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
 
 
-def rule(kind: str, type: str, *, priority: float = 0, replace: bool = False) -> Callable[[F], F]:
-    """Decorator: ``@executive.rule("action", "picking-up")`` registers statically."""
-    return static_rules.rule(kind, type, priority=priority, replace=replace)
+def rule(
+    kind: str,
+    type: str,
+    *,
+    priority: float = 0,
+    replace: bool = False,
+    keys: Iterable[str] | None = None,
+) -> Callable[[F], F]:
+    """Decorator: ``@executive.rule("action", "picking-up", keys=(...))`` registers
+    statically."""
+    return static_rules.rule(kind, type, priority=priority, replace=replace, keys=keys)
 
 
-def register_location_generator(fn: F, priority: float = 0) -> F:
+def register_location_generator(
+    fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+) -> F:
     """Register a location generator in the static rule set."""
-    return static_rules.register_location_generator(fn, priority)
+    return static_rules.register_location_generator(fn, priority, keys=keys)
 
 
 def register_location_validator(fn: F, priority: float = 0) -> F:

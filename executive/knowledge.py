@@ -29,6 +29,7 @@ __all__ = [
     "ARM_CONFIGURATIONS",
     "ARM_JOINTS",
     "ARM_PREFIX",
+    "GRIPPER_MAX_OPENING",
     "LIFT_OFFSET",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
@@ -52,6 +53,10 @@ Mat3 = tuple[Vec3, Vec3, Vec3]
 
 #: Arms in CRAM's enumeration order (pick-up tries the right arm first).
 ARMS: tuple[str, ...] = ("right", "left")
+#: The widest opening (m) of the PR2-like robot's gripper: the distance between the finger
+#: pads, each finger opening up to 0.05 m (``setting-gripper`` positions are checked
+#: against it before the gripper moves).
+GRIPPER_MAX_OPENING: float = 0.10
 
 #: Link and joint name prefix of each arm (``l_shoulder_pan_joint``, ``r_gripper_tool_frame``).
 ARM_PREFIX: Mapping[str, str] = MappingProxyType({"left": "l", "right": "r"})

@@ -4,6 +4,7 @@ conversion through the world model, and the per-run retry ledger the demo reads.
 
 from __future__ import annotations
 
+import logging
 from collections import Counter
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager
@@ -39,6 +40,10 @@ __all__ = [
 ]
 
 
+#: Every retry a :class:`CountedRetries` grants or refuses is logged here (INFO), so a
+#: run's log (the demo's ``plans.log``) has each one the demo's summary counts.
+_log = logging.getLogger("plans.retries")
+
 #: Where :class:`CountedRetries` report the retries they grant (by kind), if anyone asks:
 #: :func:`retry_ledger` binds a fresh counter for a block (the demo does, per object).
 _LEDGER: ContextVar[Counter[str] | None] = ContextVar("plans_retry_ledger", default=None)
@@ -55,6 +60,15 @@ class CountedRetries(cpl.RetryCounter):
         ledger = _LEDGER.get()
         if granted and ledger is not None:
             ledger[self.name or "retries"] += 1
+        task = cpl.current_task()
+        _log.info(
+            "retry %s %s (%d of %d used) in %s",
+            self.name or "retries",
+            "granted" if granted else "refused: none left",
+            self.used,
+            self.initial,
+            "/".join(task.path) if task is not None else "?",
+        )
         return granted
 
 

@@ -114,7 +114,7 @@ async def go_to_target(target: Any) -> None:
         emit(RobotStateChanged(reason="going"))
 
 
-@rule("action", "going")
+@rule("action", "going", keys=("target", "pose"))
 def _going(d: Designator) -> Iterator[Any]:
     target = d.get("target", d.get("pose"))
     if target is None:
@@ -136,7 +136,7 @@ async def look_at(motion: Designator) -> None:
     )
 
 
-@rule("action", "looking")
+@rule("action", "looking", keys=("target", "pose", "object", "frame", "direction"))
 def _looking(d: Designator) -> Iterator[Any]:
     props: dict[str, Any] = {}
     for key in ("target", "pose"):
@@ -189,7 +189,7 @@ async def perceive(object_designator: ObjectDesignator) -> ObjectDesignator:
     return perceived
 
 
-@rule("action", "detecting")
+@rule("action", "detecting", keys=("object",))
 def _detecting(d: Designator) -> Iterator[Any]:
     obj = d.get("object")
     if not isinstance(obj, ObjectDesignator):
@@ -204,7 +204,7 @@ async def move_torso(joint_angle: float) -> None:
     await perform(a.motion(type="moving-torso", joint_angle=joint_angle))
 
 
-@rule("action", "moving-torso")
+@rule("action", "moving-torso", keys=("joint-angle",))
 def _moving_torso(d: Designator) -> Iterator[Any]:
     angle = d.get("joint-angle")
     if not isinstance(angle, (int, float)):
@@ -258,7 +258,9 @@ def _arm_motion_rule(action_type: str) -> Any:
 
 
 for _action_type in _COLLISION_MODES:
-    rule("action", _action_type)(_arm_motion_rule(_action_type))
+    rule("action", _action_type, keys=("left-poses", "right-poses"))(
+        _arm_motion_rule(_action_type)
+    )
 
 
 @cpl.plan(name="position-arms")
@@ -278,7 +280,7 @@ def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
         raise DesignatorError(f"{d.short()}: {exc}", d) from None
 
 
-@rule("action", "positioning-arm")
+@rule("action", "positioning-arm", keys=("left-configuration", "right-configuration"))
 def _positioning_arm(d: Designator) -> Iterator[Any]:
     left, right = _configuration(d, "left"), _configuration(d, "right")
     if left is None and right is None:
@@ -314,7 +316,7 @@ async def grip(gripper: Any, effort: float | None = None) -> None:
     )
 
 
-@rule("action", "gripping")
+@rule("action", "gripping", keys=("gripper", "effort"))
 def _gripping(d: Designator) -> Iterator[Any]:
     effort = d.get("effort")
     yield grip, {"gripper": _gripper(d), "effort": None if effort is None else float(effort)}
@@ -328,7 +330,7 @@ async def release(gripper: Any) -> None:
     )
 
 
-@rule("action", "releasing")
+@rule("action", "releasing", keys=("gripper",))
 def _releasing(d: Designator) -> Iterator[Any]:
     yield release, {"gripper": _gripper(d)}
 
@@ -350,8 +352,8 @@ def _open_close_rule(action_type: str) -> Any:
 
 
 for _verb in ("opening", "closing"):
-    rule("action", f"{_verb}-gripper")(_open_close_rule(_verb))
-    rule("action", _verb)(_open_close_rule(_verb))
+    rule("action", f"{_verb}-gripper", keys=("gripper",))(_open_close_rule(_verb))
+    rule("action", _verb, keys=("gripper",))(_open_close_rule(_verb))
 
 
 @cpl.plan(name="set-gripper-to-position")
@@ -361,9 +363,17 @@ async def set_gripper_to_position(gripper: Any, position: float) -> None:
     await perform_ignoring(motion, GripperLowLevelFailure)
 
 
-@rule("action", "setting-gripper")
+@rule("action", "setting-gripper", keys=("gripper", "position"))
 def _setting_gripper(d: Designator) -> Iterator[Any]:
     position = d.get("position")
-    if not isinstance(position, (int, float)):
+    if isinstance(position, bool) or not isinstance(position, (int, float)):
         raise DesignatorError(f"{d.short()} needs a position (metres)", d)
+    # checked here, before the gripper moves: the plan ignores gripper failures, so an
+    # opening out of range would otherwise be dropped without a word
+    if not 0.0 <= position <= knowledge.GRIPPER_MAX_OPENING:
+        raise DesignatorError(
+            f"{d.short()}: position is the gripper opening in metres, from 0 to "
+            f"{knowledge.GRIPPER_MAX_OPENING}; got {position!r}",
+            d,
+        )
     yield set_gripper_to_position, {"gripper": _gripper(d), "position": float(position)}

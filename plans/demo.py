@@ -106,9 +106,21 @@ def fetch_location(object_type: str) -> LocationDesignator:
     return a.location(left, front, on=SINK, range=0.5)  # breakfast-cereal, milk
 
 
-def place_location(object_type: str) -> LocationDesignator:
-    """Where CRAM's demo puts the object (reference section 3.4)."""
-    bowl = an.object(type="bowl", name="bowl-1")
+#: Table-setting slots offered to a cup, spoon or milk placed without the bowl (see
+#: :func:`place_location`): more than the bowl's 3, so that objects placed before it leave
+#: free slots for one another, along the whole back half of the island.
+FALLBACK_SLOTS = 5
+
+
+def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDesignator:
+    """Where CRAM's demo puts the object (reference section 3.4).
+
+    The cup, spoon and milk targets are relative to the delivered bowl (``bowl-1``). When
+    the bowl was not delivered before them (``bowl_placed=False``: it is not in the
+    demo's objects, comes later in their order, or its transport failed), they go to a
+    table-setting slot of their own on the island instead (deliberate addition: CRAM's
+    demo always set the bowl first, and its relations had nothing to refer to otherwise,
+    so ``--objects cup`` could never succeed)."""
     if object_type == "bowl":
         return a.location(
             ("side", "back"),
@@ -119,6 +131,15 @@ def place_location(object_type: str) -> LocationDesignator:
             object_count=3,
             range_invert=0.5,
         )
+    if not bowl_placed and object_type in ("cup", "spoon", "milk"):
+        return a.location(
+            ("side", "back"),
+            on=ISLAND,
+            context="table-setting",
+            for_=an.object(type=object_type),
+            object_count=FALLBACK_SLOTS,
+        )
+    bowl = an.object(type="bowl", name="bowl-1")
     # (on the island) added to CRAM's relations (deliberate): the reference bowl is the
     # delivered one; if the bowl is still on the sink counter these designators have no
     # solution (object-undeliverable), rather than a spot beside it on the sink counter
@@ -265,6 +286,13 @@ async def _finalize(names: Sequence[str]) -> None:
     await _initialize_or_finalize("park")
 
 
+def _bowl_placed(outcomes: Mapping[str, ObjectOutcome]) -> bool:
+    """Whether the bowl was delivered earlier in this run (the cup, spoon and milk
+    targets refer to it then)."""
+    bowl = outcomes.get("bowl")
+    return bowl is not None and bowl.success
+
+
 async def table_setting(
     world: SceneSetup,
     objects: Sequence[str] = OBJECTS,
@@ -274,6 +302,7 @@ async def table_setting(
     projection_reasoning: bool = True,
     projection_runs: int = 3,
     spawn: bool = True,
+    outcomes: dict[str, ObjectOutcome] | None = None,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -290,11 +319,14 @@ async def table_setting(
     is recorded in its :class:`ObjectOutcome` (an object dropped at the sink is recorded
     as ``ObjectUndeliverable``). Low-level failures that escape the plans
     and evaporation propagate (a drawer opened for the spoon is still closed: see
-    ``transport``). Returns ``{type: outcome}`` in ``objects`` order."""
+    ``transport``). Returns ``{type: outcome}`` in ``objects`` order; ``outcomes``, if
+    given, is filled as the run goes (a caller whose run is evaporated, e.g. by Ctrl-C,
+    still learns what was done)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
-    outcomes: dict[str, ObjectOutcome] = {}
+    if outcomes is None:
+        outcomes = {}
     driven = [0.0]
     last = [env.world.robot_pose()]
 
@@ -319,7 +351,9 @@ async def table_setting(
                             type="transporting",
                             object=obj,
                             location=fetch_location(object_type),
-                            target=place_location(object_type),
+                            target=place_location(
+                                object_type, bowl_placed=_bowl_placed(outcomes)
+                            ),
                             projection_reasoning=projection_reasoning,
                             projection_runs=projection_runs,
                         )
@@ -329,8 +363,9 @@ async def table_setting(
                         outcome.failure = ObjectUndeliverable(object=obj.current())
                 except HighLevelFailure as failure:
                     outcome.failure = failure
-            outcome.retries = dict(ledger)
-            outcome.distance = driven[0] - start
+                finally:  # also when evaporated (Ctrl-C): what was done so far
+                    outcome.retries = dict(ledger)
+                    outcome.distance = driven[0] - start
     finally:
         try:
             await cpl.shielded(_finalize([f"{t}-1" for t in objects]))

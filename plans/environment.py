@@ -116,6 +116,35 @@ async def close_container(
     await perform_ignoring(_arm_action("retracting", arm, [away]), ManipulationLowLevelFailure)
 
 
+def _distance(d: Designator, container: Designator, opening: bool) -> float:
+    """The ``distance`` of an opening/closing action, checked before the arm moves
+    (deliberate addition): a number > 0 and, where the world model knows the container's
+    joint (``container_state``), within its travel from where it is now. Otherwise the
+    plan reached for the handle first and failed (or silently stopped) at the limit."""
+    value = d.get("distance", DEFAULT_DISTANCE)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise DesignatorError(f"{d.short()}: distance must be a number of metres > 0", d)
+    distance = float(value)
+    state = getattr(current_environment().world, "container_state", None)
+    name = container.get("urdf-name")
+    if state is None or not isinstance(name, str):
+        return distance
+    try:
+        position, lower, upper = state(name)
+    except LookupError:
+        return distance  # not a jointed container this world knows: the plan will say
+    room = (upper - position) if opening else (position - lower)
+    if distance > room + 1e-4:
+        verb = "opened" if opening else "closed"
+        raise DesignatorError(
+            f"{d.short()}: {name} can be {verb} by at most {max(room, 0.0):.3f} m from "
+            f"where it is ({position:.3f} m, travel {lower:.3f}..{upper:.3f} m); got "
+            f"distance {distance}",
+            d,
+        )
+    return distance
+
+
 def _container_rule(action_type: str) -> Any:
     opening = action_type == "opening"
 
@@ -123,7 +152,7 @@ def _container_rule(action_type: str) -> Any:
         container = d.get("object")
         if not isinstance(container, ObjectDesignator):
             return
-        distance = float(d.get("distance", DEFAULT_DISTANCE))
+        distance = _distance(d, container, opening)
         link = handle_link(container)
         try:
             handle = current_environment().world.link_pose(link, "base_footprint")
@@ -145,4 +174,4 @@ def _container_rule(action_type: str) -> Any:
 
 
 for _verb in ("opening", "closing"):
-    rule("action", _verb)(_container_rule(_verb))
+    rule("action", _verb, keys=("object", "arm", "distance"))(_container_rule(_verb))

@@ -104,6 +104,42 @@ def _location(d: Designator, key: str) -> LocationDesignator:
     raise DesignatorError(f"{d.short()} needs a {key} (location designator or pose)", d)
 
 
+def _check_places(d: Designator, *keys: str) -> None:
+    """DesignatorError, raised by the action's rule (so before anything moves), when a
+    location under ``keys`` names a surface (``(on ...)`` with a ``urdf-name``, also inside
+    nested locations) that the environment's world does not have. Without this, an
+    unknown surface failed only when the plan reached it, after the base and arms had
+    moved (deliberate addition: CRAM checked nothing up front)."""
+    world = getattr(current_environment(), "world", None)
+    if world is None or not hasattr(world, "link_pose"):
+        return
+    stack: list[tuple[str, Any]] = [(key, d.get(key)) for key in keys]
+    seen = 0
+    while stack and seen < 50:
+        key, value = stack.pop()
+        seen += 1
+        if not isinstance(value, LocationDesignator):
+            continue
+        # (in <container>) is left to the container's own rules: they reach it through its
+        # handle link, which a world may know without knowing the container's body link
+        for relation in ("on",):
+            place = value.get(relation)
+            if not isinstance(place, ObjectDesignator):
+                continue
+            link = place.get("urdf-name")
+            if not isinstance(link, str):
+                continue
+            try:
+                world.link_pose(link)
+            except LookupError as exc:
+                raise DesignatorError(
+                    f"{d.short()}: its {key} is ({relation} ...) {link!r}, which this world "
+                    f"does not have ({exc})",
+                    d,
+                ) from None
+        stack.extend((key, v) for k, v in value.properties if isinstance(v, LocationDesignator))
+
+
 def _object(d: Designator) -> ObjectDesignator:
     value = d.get("object")
     if not isinstance(value, ObjectDesignator):
@@ -123,8 +159,9 @@ async def go_without_collisions(location: LocationDesignator) -> None:
     await perform_ignoring(an.action(type="going", target=checked), NavigationLowLevelFailure)
 
 
-@rule("action", "navigating")
+@rule("action", "navigating", keys=("location",))
 def _navigating(d: Designator) -> Iterator[Any]:
+    _check_places(d, "location")
     yield go_without_collisions, {"location": _location(d, "location")}
 
 
@@ -171,7 +208,7 @@ async def _turn_base_towards(target: LocationDesignator) -> None:
     await perform_ignoring(an.action(type="looking", direction="forward"), PtuLowLevelFailure)
 
 
-@rule("action", "turning-towards")
+@rule("action", "turning-towards", keys=("target",))
 def _turning_towards(d: Designator) -> Iterator[Any]:
     yield turn_towards, {"target": _location(d, "target")}
 
@@ -234,8 +271,9 @@ async def _look_from_higher(spot: Pose) -> None:
     await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
-@rule("action", "searching")
+@rule("action", "searching", keys=("object", "location"))
 def _searching(d: Designator) -> Iterator[Any]:
+    _check_places(d, "location")
     yield search_for_object, {"object_designator": _object(d), "location": _location(d, "location")}
 
 
@@ -336,8 +374,9 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
     return arm, grasp
 
 
-@rule("action", "fetching")
+@rule("action", "fetching", keys=("object", "arm", "robot-location", "pick-up-action"))
 def _fetching(d: Designator) -> Iterator[Any]:
+    _check_places(d, "robot-location")
     yield (
         fetch,
         {
@@ -473,8 +512,9 @@ def _held_type(obj: ObjectDesignator) -> str:
     return current_environment().world.object_type(name)
 
 
-@rule("action", "delivering")
+@rule("action", "delivering", keys=("object", "target", "robot-location", "place-action"))
 def _delivering(d: Designator) -> Iterator[Any]:
+    _check_places(d, "target", "robot-location")
     yield (
         deliver,
         {
@@ -616,8 +656,13 @@ async def _drop_and_return(obj: ObjectDesignator) -> None:
     cpl.return_(False)
 
 
-@rule("action", "transporting")
+@rule(
+    "action",
+    "transporting",
+    keys=("object", "location", "target", "arm", "projection-reasoning", "projection-runs"),
+)
 def _transporting(d: Designator) -> Iterator[Any]:
+    _check_places(d, "location", "target")
     yield (
         transport,
         {
@@ -701,4 +746,4 @@ def _environment_rule(action_type: str) -> Any:
 
 
 for _verb in ("accessing", "sealing"):
-    rule("action", _verb)(_environment_rule(_verb))
+    rule("action", _verb, keys=("location", "arm", "distance"))(_environment_rule(_verb))

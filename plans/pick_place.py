@@ -115,7 +115,7 @@ def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:
     )
 
 
-@rule("action", "picking-up")
+@rule("action", "picking-up", keys=("object", "arm", "grasp"))
 def _picking_up(d: Designator) -> Iterator[Any]:
     given = d.get("object")
     if not isinstance(given, ObjectDesignator):
@@ -245,7 +245,7 @@ def placing_waypoints(
     return g.name, out
 
 
-@rule("action", "placing")
+@rule("action", "placing", keys=("object", "arm", "target", "free-yaw"))
 def _placing(d: Designator) -> Iterator[Any]:
     world = current_environment().world
     given = d.get("object")

@@ -41,6 +41,7 @@ _EXPORTS = MappingProxyType(
         "settle": "projection._real_body",
         "with_real_robot": "projection._real_environment",
         "render": "projection.render",
+        "SpawnOverlap": "projection._world_base",
     }
 )
 
@@ -49,6 +50,7 @@ __all__ = [
     "ProjectedWorldModel",
     "ProjectionImagination",
     "RealWorldModel",
+    "SpawnOverlap",
     "World",
     "make_world_pair",
     "real_robot_clock",
@@ -69,6 +71,7 @@ if TYPE_CHECKING:
     from projection._real_world_model import RealWorldModel
     from projection._scene import make_world_pair
     from projection._world import World
+    from projection._world_base import SpawnOverlap
     from projection._world_model import ProjectedWorldModel
 
 
@@ -76,6 +79,9 @@ def __getattr__(name: str) -> Any:
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'projection' has no attribute {name!r}")
+    from projection._quiet import import_pybullet_quietly
+
+    import_pybullet_quietly()  # before any module here imports it: no banner on stderr
     if name == "render":
         return importlib.import_module(module)
     return getattr(importlib.import_module(module), name)

@@ -77,6 +77,7 @@ FactorFn = Callable[[Array, Array], Array]
 HeightFn = Callable[[float, float], Sequence[float]]
 OrientationFn = Callable[[float, float], Sequence[float]]
 Box2 = tuple[tuple[float, float], tuple[float, float]]
+Bounds = tuple[float, float, float, float]
 
 # ------------------------------------------------------------------ CRAM's parameters
 PADDING: Final = 0.3  #: costmap-padding: kitchen free space
@@ -158,6 +159,10 @@ class Factor:
     fn: FactorFn
     score: float = 0.0
     expensive: bool = False
+    #: ``(x_lo, x_hi, y_lo, y_hi)``: a box outside which ``fn`` is 0 (None: unbounded).
+    #: :meth:`Costmap.values` evaluates the factors only on the cells inside every
+    #: factor's box (plus one cell), so a bound must never cut a cell ``fn`` keeps.
+    bounds: Bounds | None = None
 
 
 @dataclass
@@ -175,7 +180,10 @@ class Costmap:
     orientations: list[OrientationFn] = field(default_factory=list)
     empty_reason: str | None = None
     _values: Array | None = None
+    #: the cumulative sum over the positive cells only (``_cells``, ascending): the
+    #: same sums as over the whole grid (adding a zero is exact), ~20x fewer to take
     _cdf: Array | None = None
+    _cells: Array | None = None
     _max: float = 0.0
 
     # ---------------------------------------------------------------- composition
@@ -196,12 +204,21 @@ class Costmap:
             k += 1
         return f"{base}-{k}"
 
-    def add(self, name: str, fn: FactorFn, score: float = 0.0, *, expensive: bool = False) -> bool:
-        """Add a factor unless one of that name exists; True if added."""
+    def add(
+        self,
+        name: str,
+        fn: FactorFn,
+        score: float = 0.0,
+        *,
+        expensive: bool = False,
+        bounds: Bounds | None = None,
+    ) -> bool:
+        """Add a factor unless one of that name exists; True if added. ``bounds`` (x_lo,
+        x_hi, y_lo, y_hi): where ``fn`` may be non-zero (see :attr:`Factor.bounds`)."""
         self._mutable()
         if name in self.names():
             return False
-        self.factors.append(Factor(name, fn, score, expensive))
+        self.factors.append(Factor(name, fn, score, expensive, bounds))
         return True
 
     def add_height(self, fn: HeightFn) -> None:
@@ -221,29 +238,79 @@ class Costmap:
         if self._values is not None:
             return self._values
         spec = self.spec
-        X, Y = spec.grid()
-        m = np.ones(X.size)
-        xs, ys = X.ravel(), Y.ravel()
-        live = np.arange(X.size)
+        # Evaluate only the window every bounded factor allows (cells outside it are 0 in
+        # the product anyway): the same values, without a pass over all 90k cells per
+        # factor. An empty result is recomputed over the whole grid so that
+        # ``empty_reason`` names the same factor as a full evaluation would.
+        window = self._window()
+        m, empty_reason = self._product(window)
+        if empty_reason is not None and window is not None:
+            m, empty_reason = self._product(None)
+        if self.empty_reason is None:
+            self.empty_reason = empty_reason
+        self._values = m.reshape(spec.height, spec.width)
+        self._cells = np.flatnonzero(m)
+        self._cdf = np.cumsum(m[self._cells])
+        self._max = float(m.max()) if m.size else 0.0
+        return self._values
+
+    def _window(self) -> Array | None:
+        """The flat indices (ascending) of the cells inside every factor's bounds, grown
+        by one cell; None without bounded factors."""
+        boxes = [
+            f.bounds for f in self.factors
+            if f.bounds is not None and all(math.isfinite(v) for v in f.bounds)
+        ]
+        if not boxes:
+            return None
+        s = self.spec
+        x_lo = max(b[0] for b in boxes)
+        x_hi = min(b[1] for b in boxes)
+        y_lo = max(b[2] for b in boxes)
+        y_hi = min(b[3] for b in boxes)
+        c0 = max(math.floor((x_lo - s.origin[0]) / s.resolution) - 1, 0)
+        c1 = min(math.ceil((x_hi - s.origin[0]) / s.resolution) + 1, s.width - 1)
+        r0 = max(math.floor((y_lo - s.origin[1]) / s.resolution) - 1, 0)
+        r1 = min(math.ceil((y_hi - s.origin[1]) / s.resolution) + 1, s.height - 1)
+        if c0 > c1 or r0 > r1:
+            return np.empty(0, dtype=np.intp)
+        rows = np.arange(r0, r1 + 1, dtype=np.intp)
+        cols = np.arange(c0, c1 + 1, dtype=np.intp)
+        return (rows[:, None] * s.width + cols[None, :]).ravel()
+
+    def _product(self, live: Array | None) -> tuple[Array, str | None]:
+        """The factors' product over the cells ``live`` (None: all), 0 elsewhere, and why
+        it is empty (None if it is not)."""
+        s = self.spec
+        n = s.width * s.height
+        if live is None:
+            live = np.arange(n)
+            m = np.ones(n)
+        else:
+            m = np.zeros(n)
+            m[live] = 1.0
+        # cell-corner coordinates exactly as CostmapSpec.grid() computes them
+        cols, rows = np.divmod(live, s.width)[::-1]
+        xs = s.origin[0] + s.resolution * cols.astype(float)
+        ys = s.origin[1] + s.resolution * rows.astype(float)
         order = sorted(self.factors, key=lambda f: (f.expensive, -f.score))
         done: list[str] = []
+        reason: str | None = None
         for f in order:
             if live.size == 0:
                 break
-            v = np.asarray(f.fn(xs[live], ys[live]), dtype=float)
-            m[live] *= np.clip(v, 0.0, None)
-            keep = m[live] > 0.0
-            if not keep.any() and self.empty_reason is None:
+            v = np.asarray(f.fn(xs, ys), dtype=float)
+            ml = m[live] * np.clip(v, 0.0, None)
+            m[live] = ml
+            keep = ml > 0.0
+            if not keep.any() and reason is None:
                 after = f" after {', '.join(done)}" if done else ""
-                self.empty_reason = f"factor {f.name!r} leaves no cell{after}"
-            live = live[keep]
+                reason = f"factor {f.name!r} leaves no cell{after}"
+            live, xs, ys = live[keep], xs[keep], ys[keep]
             done.append(f.name)
-        if live.size == 0 and self.empty_reason is None:
-            self.empty_reason = "no cell has a positive value"
-        self._values = m.reshape(X.shape)
-        self._cdf = np.cumsum(m)
-        self._max = float(m.max()) if m.size else 0.0
-        return self._values
+        if live.size == 0 and reason is None:
+            reason = "no cell has a positive value"
+        return m, reason
 
     @property
     def empty(self) -> bool:
@@ -277,13 +344,14 @@ class Costmap:
     def sample_xy(self, rng: np.random.Generator) -> tuple[float, float]:
         """One cell corner drawn from the normalised map. Empty map -> ValueError."""
         self.values()
-        cdf = self._cdf
-        assert cdf is not None
-        total = cdf[-1]
+        cdf, cells = self._cdf, self._cells
+        assert cdf is not None and cells is not None
+        total = cdf[-1] if cdf.size else 0.0
         if not total > 0.0:
             raise ValueError(f"the costmap is empty: {self.empty_reason}")
-        idx = int(cdf.searchsorted(rng.random() * total, side="right"))
-        idx = min(idx, cdf.size - 1)
+        k = int(cdf.searchsorted(rng.random() * total, side="right"))
+        # past the last positive cell: the grid's last cell, as a whole-grid cdf gives
+        idx = int(cells[k]) if k < cells.size else self.spec.width * self.spec.height - 1
         row, col = divmod(idx, self.spec.width)
         s = self.spec
         return s.origin[0] + col * s.resolution, s.origin[1] + row * s.resolution
@@ -344,6 +412,11 @@ def _range_fn(cx: float, cy: float, r: float, invert: bool) -> FactorFn:
         return (~inside if invert else inside).astype(float)
 
     return f
+
+
+def _disc(cx: float, cy: float, r: float, invert: bool = False) -> Bounds | None:
+    """The bounds of :func:`_range_fn` (an inverted range is unbounded)."""
+    return None if invert else (cx - r, cx + r, cy - r, cy + r)
 
 
 def _box_fn(lo: Sequence[float], hi: Sequence[float]) -> FactorFn:
@@ -412,7 +485,12 @@ def add_demo_area(
             out[(x > x0) & (x <= x1) & (y > y0) & (y < y1)] = 1.0
         return out
 
-    cm.add("demo-restricted-area", f, 5)
+    bounds = (
+        (min(r[0] for r in rects), max(r[1] for r in rects),
+         min(r[2] for r in rects), max(r[3] for r in rects))
+        if rects else None
+    )
+    cm.add("demo-restricted-area", f, 5, bounds=bounds)
 
 
 def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[float, float]:
@@ -422,7 +500,12 @@ def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[f
     mu, cov = pose_covariance(points, POSE_MINVAR)
     cm.add("pose-distribution", gaussian(mu, cov), 5)
     for p in points:
-        cm.add(cm.unique_name("reach-range"), _range_fn(p[0], p[1], IN_REACH_DISTANCE, False), 7)
+        cm.add(
+            cm.unique_name("reach-range"),
+            _range_fn(p[0], p[1], IN_REACH_DISTANCE, False),
+            7,
+            bounds=_disc(p[0], p[1], IN_REACH_DISTANCE),
+        )
         cm.add(
             cm.unique_name("reach-minimal-range"),
             _range_fn(p[0], p[1], REACH_MINIMAL_DISTANCE, True),
@@ -521,27 +604,32 @@ def _clear_rays(
     clear = np.zeros(n, dtype=bool)
     todo = np.arange(n)
     cur = starts.astype(float).copy()
+    ends = np.asarray(ends, dtype=float)
     batch = pb.MAX_RAY_INTERSECTION_BATCH_SIZE
+    excluded = np.fromiter(exclude, dtype=int, count=len(exclude))
     for _ in range(6):
         if todo.size == 0:
             break
-        again: list[int] = []
+        again: list[Array] = []
         for k in range(0, todo.size, batch):
             part = todo[k : k + batch]
             res = pb.rayTestBatch(cur[part].tolist(), ends[part].tolist(), physicsClientId=client)
-            for i, r in zip(part, res):
-                body = r[0]
-                if body < 0:
-                    clear[i] = True
-                    continue
-                seg = ends[i] - cur[i]
-                length = float(np.linalg.norm(seg))
-                if (1.0 - r[2]) * length <= tolerance:
-                    clear[i] = True
-                elif body in exclude:
-                    cur[i] = np.asarray(r[3]) + seg / max(length, 1e-9) * 1e-3
-                    again.append(int(i))
-        todo = np.asarray(again, dtype=int)
+            # vectorised per-ray verdicts (this loop is the visibility costmap's hot spot)
+            columns = tuple(zip(*res))  # (body, link, fraction, position, normal) columns
+            body = np.asarray(columns[0], dtype=int)
+            frac = np.asarray(columns[2], dtype=float)
+            seg = ends[part] - cur[part]
+            length = np.sqrt((seg * seg).sum(axis=1))
+            done = (body < 0) | ((1.0 - frac) * length <= tolerance)
+            clear[part[done]] = True
+            on = ~done & np.isin(body, excluded)
+            if on.any():
+                idx = part[on]
+                hit = np.asarray(columns[3], dtype=float)[on]
+                step = seg[on] / np.maximum(length[on], 1e-9)[:, None] * 1e-3
+                cur[idx] = hit + step
+                again.append(idx)
+        todo = np.concatenate(again) if again else np.empty(0, dtype=int)
     return clear
 
 
@@ -560,7 +648,12 @@ def add_visible_for(
     tx, ty, tz = (float(v) for v in target[:3])
     mu, cov = pose_covariance([target], POSE_MINVAR)
     cm.add("pose-distribution", gaussian(mu, cov), 5)
-    cm.add("visibility-range", _range_fn(tx, ty, VISIBILITY_SIZE, False), 7)
+    cm.add(
+        "visibility-range",
+        _range_fn(tx, ty, VISIBILITY_SIZE, False),
+        7,
+        bounds=_disc(tx, ty, VISIBILITY_SIZE),
+    )
     hs = np.asarray(heights, dtype=float)
     half = VISIBILITY_SIZE / 2.0
 
@@ -579,7 +672,7 @@ def add_visible_for(
         out[idx] = clear.reshape(idx.size, k).mean(axis=1)
         return out
 
-    cm.add("visibility", f, 20, expensive=True)
+    cm.add("visibility", f, 20, expensive=True, bounds=_disc(tx, ty, half))
     cm.add_orientation(facing(tx, ty))
     cm.add_height(constant_height(0.0))
 
@@ -593,7 +686,7 @@ def add_on_box(
 ) -> None:
     """``on``: 1 strictly inside the surface's AABB (score 5); height its top, or top +
     ``object_height`` / 2 with ``for``."""
-    cm.add(f"on-bounding-box-{label}", _box_fn(lo, hi), 5)
+    cm.add(f"on-bounding-box-{label}", _box_fn(lo, hi), 5, bounds=(lo[0], hi[0], lo[1], hi[1]))
     top = float(hi[2]) + (object_height / 2.0 if object_height is not None else 0.0)
     cm.add_height(constant_height(top))
 
@@ -601,7 +694,7 @@ def add_on_box(
 def add_in_box(cm: Costmap, label: str, lo: Sequence[float], hi: Sequence[float]) -> None:
     """``in``: 1 strictly inside the container's AABB (score 5); height its bottom +
     :data:`BOARD_THICKNESS`."""
-    cm.add(f"in-bounding-box-{label}", _box_fn(lo, hi), 5)
+    cm.add(f"in-bounding-box-{label}", _box_fn(lo, hi), 5, bounds=(lo[0], hi[0], lo[1], hi[1]))
     z = float(lo[2]) + BOARD_THICKNESS
     cm.add_height(constant_height(z))
 
@@ -628,7 +721,8 @@ def add_range(cm: Costmap, origin: Sequence[float], r: float, invert: bool) -> N
     """``range`` / ``range-invert``: keep distance <= r (>= r inverted) from the link
     origin's xy (score 2)."""
     base = "range-invert" if invert else "range"
-    cm.add(cm.unique_name(base), _range_fn(float(origin[0]), float(origin[1]), r, invert), 2)
+    ox, oy = float(origin[0]), float(origin[1])
+    cm.add(cm.unique_name(base), _range_fn(ox, oy, r, invert), 2, bounds=_disc(ox, oy, r, invert))
 
 
 def slot_centres(
@@ -688,7 +782,12 @@ def add_slots(
         d = np.hypot(x[:, None] - pts[None, :, 0], y[:, None] - pts[None, :, 1]).min(axis=1)
         return np.asarray(d <= thr, dtype=float)
 
-    cm.add("table-setting-slots", f, 6)
+    bounds = (
+        (float(pts[:, 0].min()) - thr, float(pts[:, 0].max()) + thr,
+         float(pts[:, 1].min()) - thr, float(pts[:, 1].max()) + thr)
+        if pts.size else None
+    )
+    cm.add("table-setting-slots", f, 6, bounds=bounds)
     return centres
 
 
@@ -717,7 +816,12 @@ def add_near(
     width = (s_ref + s_for) * 0.5 * 1.0
     cx, cy = float(centre[0]), float(centre[1])
     cm.add(cm.unique_name("near-exclude"), _range_fn(cx, cy, r_min, True), 5)
-    cm.add(cm.unique_name("near-include"), _range_fn(cx, cy, r_min + width, False), 5)
+    cm.add(
+        cm.unique_name("near-include"),
+        _range_fn(cx, cy, r_min + width, False),
+        5,
+        bounds=_disc(cx, cy, r_min + width),
+    )
     cm.add(cm.unique_name("near-gauss"), gaussian((cx, cy), np.eye(2)), 5)
 
 
@@ -733,7 +837,12 @@ def add_far_from(
     width = (s_ref + s_for) * 0.5 * 5.0
     cx, cy = float(centre[0]), float(centre[1])
     cm.add(cm.unique_name("far-exclude"), _range_fn(cx, cy, r_min, True), 5)
-    cm.add(cm.unique_name("far-include"), _range_fn(cx, cy, r_min + width, False), 5)
+    cm.add(
+        cm.unique_name("far-include"),
+        _range_fn(cx, cy, r_min + width, False),
+        5,
+        bounds=_disc(cx, cy, r_min + width),
+    )
 
 
 def closest_edge(
@@ -809,7 +918,7 @@ def add_relation(
     if support is not None:
         lo = (support[0][0] + margin, support[0][1] + margin)
         hi = (support[1][0] - margin, support[1][1] - margin)
-        cm.add("supporting-object", _box_fn(lo, hi), 9)
+        cm.add("supporting-object", _box_fn(lo, hi), 9, bounds=(lo[0], hi[0], lo[1], hi[1]))
     axis, greater = _RELATIONS[edge][relation]
     ox, oy = float(reference[0]), float(reference[1])
     c, s = math.cos(yaw), math.sin(yaw)

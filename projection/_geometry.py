@@ -14,8 +14,8 @@ Tf = tuple[Vec, Quat]
 
 
 def finite(values: Iterable[float], what: str) -> tuple[float, ...]:
-    out = tuple(float(v) for v in values)
-    if not all(math.isfinite(v) for v in out):
+    out = tuple(map(float, values))
+    if not all(map(math.isfinite, out)):
         raise ValueError(f"{what} must be finite, got {out!r}")
     return out
 

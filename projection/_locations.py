@@ -154,7 +154,9 @@ class LocationCostmaps:
         self.builds = 0
         self._plans: weakref.WeakKeyDictionary[Designator, _Plan] = weakref.WeakKeyDictionary()
         rules = (parent if parent is not None else static_rules).child("projection-locations")
-        rules.register_location_generator(self.generate, 20)
+        rules.register_location_generator(
+            self.generate, 20, keys=(*COSTMAP_KEYS, *_MODIFIERS, "location", "object", "pose")
+        )
         rules.register_location_validator(self.validate_on_floor, 1)
         rules.register_location_validator(self.validate_reachable, 5)
         rules.register_location_validator(self.validate_visible, 5)
@@ -269,7 +271,7 @@ class LocationCostmaps:
                 name = "__costmap_probe__"
                 while name in world.objects:
                     name += "_"
-                world.spawn_object(name, plan.for_type, p)
+                world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
                 world.set_object_pose(name, p)
             hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]
@@ -550,9 +552,7 @@ class LocationCostmaps:
         horizontal axis it sticks out along (the opening direction); else None."""
         world = self.world
         for link in cm.KITCHEN_LINKS:
-            try:
-                world.joint_position(f"{link}_joint")
-            except LookupError:
+            if not world.has_joint(f"{link}_joint"):
                 continue
             lo, hi = world.link_aabb(link)
             if not (lo[0] < point[0] < hi[0] and lo[1] < point[1] < hi[1]):

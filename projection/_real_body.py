@@ -73,14 +73,19 @@ def _robot_links(world: World) -> dict[str, int]:
 def sync_robot(true_world: World, belief_world: World) -> None:
     """Set the belief robot's base and joints to the true robot's; objects the belief robot
     holds follow. Nothing else in the belief changes."""
-    truth = true_world.snapshot()
-    belief = belief_world.snapshot()
-    if belief.base == truth.base and belief.robot_joints == truth.robot_joints:
+    # compare the robot parts only (what a snapshot of each holds, without the objects:
+    # this runs at every control step of every real motion)
+    true_world._check()
+    belief_world._check()
+    base, joints = true_world._base, true_world._get_joints(true_world._dofs)
+    if belief_world._base == base and belief_world._get_joints(belief_world._dofs) == joints:
         return
-    belief_world.restore(replace(belief, base=truth.base, robot_joints=truth.robot_joints))
-    links = _robot_links(belief_world)
+    belief = belief_world.snapshot()
+    belief_world.restore(replace(belief, base=base, robot_joints=joints))
+    robot = belief_world.robot_body
     for name, link, (rp, rq) in belief.attachments:
-        if link in links:
+        body, index = belief_world._links.get(link, (-1, -1))
+        if body == robot and index >= 0:  # a robot link (not the base), as _robot_links
             lp = belief_world.link_pose(link)
             pos, orn = pb.multiplyTransforms(lp.position, lp.orientation, rp, rq)
             belief_world.set_object_pose(name, Pose(pos, orn))
@@ -138,14 +143,16 @@ class _Body:
 
     def _restless(self) -> bool:
         world, c = self.true, self.true.client
-        attached = world.attachments
-        free = [world.body_of(n) for n in world.objects if n not in attached]
+        attached = world._attached
+        free = [o.body for n, o in world._objects.items() if n not in attached]
         if not free:
             return False
         lin_eps, ang_eps = _AT_REST
         for body in free:
-            lin, ang = pb.getBaseVelocity(body, physicsClientId=c)
-            if np.linalg.norm(lin) > lin_eps or np.linalg.norm(ang) > ang_eps:
+            (lx, ly, lz), (ax, ay, az) = pb.getBaseVelocity(body, physicsClientId=c)
+            # |v| by hand: numpy's norm costs ~6 us per 3-vector, this runs per step
+            if (math.sqrt(lx * lx + ly * ly + lz * lz) > lin_eps
+                    or math.sqrt(ax * ax + ay * ay + az * az) > ang_eps):
                 return True
         robot = world.robot_body
         pb.performCollisionDetection(physicsClientId=c)

@@ -71,6 +71,9 @@ class RealWorldModel:
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         return self.belief.link_pose(link, frame)
 
+    def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
+        return self.belief.container_state(link_or_joint)
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         return self.belief.link_aabb(link)
 
@@ -153,7 +156,7 @@ class RealWorldModel:
             if belief.attachments.get(name) not in self._links:  # not in the robot's hand
                 belief.set_object_pose(name, pose)
         elif isinstance(otype, str):
-            belief.spawn_object(name, otype, pose)
+            belief.spawn_object(name, otype, pose, allow_overlap=True)  # noisy percepts
 
     def __repr__(self) -> str:
         return f"<RealWorldModel true={self.true_world!r} belief={self.belief_world!r}>"

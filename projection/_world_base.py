@@ -6,7 +6,6 @@ stability) are mixins on this base, in their own modules."""
 
 from __future__ import annotations
 
-import difflib
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -24,15 +23,38 @@ from projection import _urdf
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
+from projection._names import UnknownName
 from projection._objects import object_type
 
-__all__ = ["ASSETS", "DEFAULT_TORSO", "FRAMES", "KITCHEN", "ROBOT", "WorldBase"]
+__all__ = [
+    "ASSETS",
+    "DEFAULT_TORSO",
+    "FRAMES",
+    "KITCHEN",
+    "ROBOT",
+    "SPAWN_OVERLAP",
+    "SpawnOverlap",
+    "WorldBase",
+]
 
 ASSETS = Path(__file__).resolve().parent / "assets"
 DEFAULT_TORSO = 0.15  #: torso height of a new world (m): camera at 1.42 m
 FRAMES = ("map", "base_footprint")
 ROBOT = "pr2"
 KITCHEN = "kitchen"
+#: How deep (m) a new object may reach into another object or the robot when spawned: more
+#: is an overlap (:class:`SpawnOverlap`), which physics would resolve by throwing objects.
+SPAWN_OVERLAP = 0.005
+
+
+class SpawnOverlap(ValueError):
+    """``spawn_object`` would put the object into another object or the robot. Fields:
+    ``name`` (the object not spawned), ``overlaps`` (what it would overlap)."""
+
+    def __init__(self, message: str, name: str, overlaps: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.name = name
+        self.overlaps = overlaps
 
 
 
@@ -96,6 +118,12 @@ class WorldBase:
             for n, i in self._kitchen_joints.items()
         }
         self._link_names = {v: k for k, v in self._links.items()}
+        # invariant: the room, the xy hull of the kitchen's links (walls included); the
+        # robot's base never leaves it (``drive`` refuses goals outside)
+        boxes = [pb.getAABB(self._kitchen, i, physicsClientId=c)
+                 for i in range(-1, pb.getNumJoints(self._kitchen, physicsClientId=c))]
+        self._room = (min(lo[0] for lo, _ in boxes), min(lo[1] for lo, _ in boxes),
+                      max(hi[0] for _, hi in boxes), max(hi[1] for _, hi in boxes))
         self._dofs = sorted(self._limits)  # movable robot joints, IK order
         self._arm_joints = {
             arm: [self._robot_joints[f"{p}_{j}"] for j in knowledge.ARM_JOINTS]
@@ -198,6 +226,12 @@ class WorldBase:
         return MappingProxyType({n: o.type for n, o in self._objects.items()})
 
     @property
+    def room(self) -> tuple[float, float, float, float]:
+        """The room's floor in map xy, ``(x_min, y_min, x_max, y_max)``: the hull of the
+        kitchen's links, walls included. The base does not drive outside it."""
+        return self._room
+
+    @property
     def link_names(self) -> tuple[str, ...]:
         return tuple(self._links)
 
@@ -218,9 +252,8 @@ class WorldBase:
         try:
             return self._links[link]
         except (KeyError, TypeError):
-            close = difflib.get_close_matches(str(link), self._links, n=5, cutoff=0.5)
-            hint = f"; did you mean {', '.join(close)}?" if close else ""
-            raise LookupError(f"unknown link {link!r}{hint}") from None
+            # the "did you mean" hint is built only if the message is read
+            raise UnknownName("link", link, self._links) from None
 
     def _link_tf(self, body: int, index: int) -> _Tf:
         c = self._c
@@ -293,9 +326,16 @@ class WorldBase:
         if joint in self._kitchen_joints:
             return float(pb.getJointState(self._kitchen, self._kitchen_joints[joint],
                                           physicsClientId=self._c)[0])
-        known = [*self._robot_joints, *self._kitchen_joints]
-        close = difflib.get_close_matches(str(joint), known, n=5, cutoff=0.5)
-        raise LookupError(f"unknown joint {joint!r}; close matches: {', '.join(close) or 'none'}")
+        raise UnknownName(
+            "joint", joint, lambda: [*self._robot_joints, *self._kitchen_joints],
+            style="close-matches",
+        )
+
+    def has_joint(self, joint: str) -> bool:
+        """Whether the robot or the kitchen has a movable joint named ``joint`` (ask this
+        instead of catching :meth:`joint_position`'s ``LookupError`` where a miss is
+        expected)."""
+        return joint in self._robot_joints or joint in self._kitchen_joints
 
     def arm_joints(self, arm: str) -> tuple[float, ...]:
         """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
@@ -313,10 +353,15 @@ class WorldBase:
         return float(sum(self._get_joints(self._fingers[self._arm(arm)])))
 
     # ------------------------------------------------------------------ registry
-    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+    def spawn_object(
+        self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False
+    ) -> str:
         """Add an object of a known type at ``pose`` (map or base_footprint), at rest.
         Duplicate name -> ValueError; unknown type -> LookupError naming the known ones;
-        NaN pose -> ValueError. The world is unchanged on error."""
+        NaN pose -> ValueError; reaching more than :data:`SPAWN_OVERLAP` into another
+        object or the robot -> :class:`SpawnOverlap` (``allow_overlap=True`` skips that
+        check, for probes and restores that check contacts themselves). The world is
+        unchanged on error."""
         c = self._check()
         if not isinstance(name, str) or not name or name in (ROBOT, KITCHEN):
             raise ValueError(f"object name must be a non-empty string other than pr2/kitchen, "
@@ -326,9 +371,32 @@ class WorldBase:
         otype = object_type(type)
         pos, orn = self._to_map(pose)
         body = pb.loadURDF(str(ASSETS / "objects" / otype.urdf_name), pos, orn, physicsClientId=c)
+        if not allow_overlap:
+            overlaps = self._overlaps(body)
+            if overlaps:
+                pb.removeBody(body, physicsClientId=c)
+                raise SpawnOverlap(
+                    f"cannot spawn {name!r} at {tuple(round(v, 3) for v in pos)}: it would "
+                    f"overlap {', '.join(overlaps)} (deeper than {SPAWN_OVERLAP} m); choose a "
+                    "free pose (e.g. sample one with a location designator (for ...))",
+                    name,
+                    overlaps,
+                )
         self._objects[name] = _Obj(otype.name, body)
         self._bodies[body] = name
         return name
+
+    def _overlaps(self, body: int) -> tuple[str, ...]:
+        """Names of the objects and the robot that ``body`` reaches into by more than
+        :data:`SPAWN_OVERLAP` (the kitchen is not checked: objects stand on it)."""
+        c = self._c
+        found = []
+        others = [(ROBOT, self._robot)] + [(n, o.body) for n, o in self._objects.items()]
+        for other_name, other in others:
+            points = pb.getClosestPoints(body, other, 0.0, physicsClientId=c)
+            if any(q[8] < -SPAWN_OVERLAP for q in points):
+                found.append(other_name)
+        return tuple(found)
 
     def remove_object(self, name: str) -> None:
         """Remove an object (and its attachment); unknown -> LookupError."""
@@ -430,7 +498,7 @@ class WorldBase:
         states = pb.getJointStates(
             self._robot if body is None else body, indices, physicsClientId=self._c
         )
-        return tuple(float(s[0]) for s in states)
+        return tuple([s[0] for s in states])  # PyBullet gives Python floats
 
     def _set_joints(self, indices: Sequence[int], values: Sequence[float],
                     body: int | None = None) -> None:

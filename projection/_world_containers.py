@@ -48,11 +48,26 @@ class Containers(WorldBase):
         self._set_joints([index], [min(max(goal, lo), hi)], self._kitchen)
         self._update_attached(self._kitchen)
 
+    def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
+        """``(position, lower, upper)`` of a container joint (the drawer's in metres);
+        unknown -> LookupError naming the known ones."""
+        self._check()
+        joint = self._container_joint(link_or_joint)
+        lo, hi = self._kitchen_limits[joint]
+        return self.joint_position(joint), float(lo), float(hi)
+
     def set_container(self, link_or_joint: str, position: float) -> None:
-        """Set a container joint to ``position`` (clamped to its limits)."""
+        """Set a container joint to ``position``, within its limits (1e-4 of slack, then
+        clamped onto them); further outside -> ValueError naming the limits, world
+        unchanged (deliberate: it used to clamp silently)."""
         self._check()
         joint = self._container_joint(link_or_joint)
         (v,) = _finite([position], "position")
         lo, hi = self._kitchen_limits[joint]
+        if not lo - 1e-4 <= v <= hi + 1e-4:
+            raise ValueError(
+                f"set_container({link_or_joint!r}, {position!r}): {joint} moves within "
+                f"[{lo}, {hi}]; give a position in that range"
+            )
         self._set_joints([self._kitchen_joints[joint]], [min(max(v, lo), hi)], self._kitchen)
         self._update_attached(self._kitchen)

@@ -117,6 +117,10 @@ class ProjectedWorldModel:
         """A robot or kitchen link's pose; unknown links raise LookupError."""
         return self.world.link_pose(link, frame)
 
+    def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
+        """``(position, lower, upper)`` of a container joint (see ``World``)."""
+        return self.world.container_state(link_or_joint)
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """A robot or kitchen link's axis-aligned bounding box in map, ``(min, max)``;
         unknown links raise LookupError."""

@@ -25,9 +25,17 @@ class BodyMotions(Collisions):
         """Teleport the base to ``pose`` (map or base_footprint; z, roll and pitch are
         ignored); attached objects follow. If the robot or an object it carries then
         collides with anything else, the previous pose is restored and
-        :class:`NavigationPoseUnreachable` (``location=pose``) is raised."""
+        :class:`NavigationPoseUnreachable` (``location=pose``) is raised; so it is for a
+        goal outside the room (:attr:`room`), where nothing would stop a teleport."""
         self._check()
         pos, orn = self._to_map(pose)
+        x0, y0, x1, y1 = self._room
+        if not (x0 <= pos[0] <= x1 and y0 <= pos[1] <= y1):
+            raise NavigationPoseUnreachable(
+                f"Navigation pose unreachable: ({pos[0]:.2f}, {pos[1]:.2f}) is outside the "
+                f"room (x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f})",
+                location=pose,
+            )
         c = self._c
         prev = self._base
         carried = []

@@ -85,7 +85,7 @@ class Snapshots(WorldBase):
             if obj is None or obj.type != t:
                 if obj is not None:
                     self.remove_object(n)
-                self.spawn_object(n, t, Pose(pos, orn, "map"))
+                self.spawn_object(n, t, Pose(pos, orn, "map"), allow_overlap=True)
                 obj = self._objects[n]
             pb.resetBasePositionAndOrientation(obj.body, pos, orn, physicsClientId=c)
             pb.resetBaseVelocity(obj.body, lin, ang, physicsClientId=c)

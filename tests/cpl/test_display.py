@@ -20,6 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rich.console import Console
 
+import cpl
 from cpl._status import Status
 from cpl._tree import FailureInfo, TaskNode, snapshot
 from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration, render, render_text
@@ -344,3 +345,38 @@ def test_dump_task_tree_of_a_task() -> None:
 def test_dump_task_tree_without_runs() -> None:
     out = io.StringIO()
     assert dump_task_tree(file=out) == "(no cpl run in progress)\n"
+
+
+def test_collapse_keeps_recovered_failures_visible(mrun: Any) -> None:
+    """A subtree that succeeded after a retry is not folded away: the failure it recovered
+    from stays visible, with the path to it; clean subtrees fold."""
+    counter = cpl.RetryCounter(1)
+
+    async def flaky() -> None:
+        if counter.used == 0:
+            cpl.fail("first try fails")
+
+    async def clean() -> None:
+        await cpl.sleep(1)
+
+    async def recovering() -> None:
+        def again(_f: Any) -> None:
+            if counter.do_retry():
+                cpl.retry()
+
+        await cpl.with_failure_handling(
+            lambda: cpl.with_task(flaky(), name="flaky"), {cpl.PlanFailure: again}
+        )
+
+    async def main() -> Any:
+        await cpl.with_task(clean(), name="clean")
+        await cpl.with_task(recovering(), name="recovering")
+        return cpl.current_task()
+
+    root = mrun(main, name="collapse")
+    node = snapshot(root, collapse_finished=True)
+    names = [n.name for n in node.walk()]
+    assert "clean" not in names and node.collapsed == 1
+    assert "recovering" in names and "flaky" in names
+    text = render_text(node, ascii=True, width=100)
+    assert "first try fails" in text

@@ -162,3 +162,28 @@ def test_waking_only_the_inner_task_lets_it_finish_but_not_its_suspended_parent(
     mid, log_after = mrun(main)
     assert mid == (["inner done"], cpl.Status.SUSPENDED)
     assert log_after == ["inner done", "outer goes on"]
+
+
+def test_a_cleanup_that_raises_does_not_replace_the_parents_evaporation(
+    mrun: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    async def child() -> None:
+        try:
+            await cpl.sleep(100)
+        finally:
+            raise KeyError("cleanup broke")
+
+    async def parent() -> None:
+        await cpl.with_task(child(), name="child")
+
+    async def main() -> Any:
+        p = cpl.spawn(parent(), name="parent")
+        await cpl.sleep(1)
+        p.evaporate("stop")
+        await p.join()
+        (c,) = p.children
+        return p.state, c.state, type(c.failure).__name__
+
+    with caplog.at_level("ERROR", logger="cpl.cleanup"):
+        assert mrun(main) == (cpl.Status.EVAPORATED, cpl.Status.FAILED, "KeyError")
+    assert "cleanup broke" in caplog.text

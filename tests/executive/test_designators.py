@@ -154,6 +154,30 @@ def test_repr_reads_like_cram() -> None:
     assert cup.short() == "object (type cup) (name cup-1)"
 
 
+def test_repr_is_cached_only_when_every_value_is_immutable() -> None:
+    class Gauge:  # a mutable value: its display can change
+        def __init__(self) -> None:
+            self.level = 1
+
+        def __repr__(self) -> str:
+            return f"gauge-{self.level}"
+
+    gauge = Gauge()
+    loose = an.action(type="checking", gauge=gauge, nested=a.location(thing=gauge))
+    assert "gauge-1" in repr(loose)
+    gauge.level = 2
+    assert repr(loose) == (
+        "<an action (type checking) (gauge gauge-2) (nested <a location (thing gauge-2)>)>"
+    )
+    fixed = an.action(type="placing", target=a.location(pose=Pose((1.0, 2.0, 0.0))), arm="left")
+    first = repr(fixed)
+    assert repr(fixed) is first  # cached: the event log renders it at every task event
+    assert first == (
+        "<an action (type placing) (target <a location (pose <Pose map (1.000 2.000 0.000) "
+        "(0.000 0.000 0.000 1.000)>)>) (arm left)>"
+    )
+
+
 def test_rich_rendering() -> None:
     cup = an.object(type="cup", name="cup-1")
     act = an.action(type="picking-up", object=cup, arm="left")

@@ -195,3 +195,32 @@ def test_positional_arguments_in_a_grounding(mrun: Any) -> None:
             return await perform(an.action(type="adding", x=40))
 
     assert mrun(main, name="positional") == 42
+
+
+def test_a_failed_motion_leaves_no_failure_traceback_frame_failure_cycle(mrun: Any) -> None:
+    """perform keeps the first failure in a local while it tries the other candidates;
+    once raised, that local must not hold the failure, or failure -> traceback -> frame ->
+    failure is a reference cycle only a (full) garbage collection frees."""
+    nav = FakeProcessModule("nav", accepts="going", fail_on={1: NavigationPoseUnreachable})
+    caught: list[BaseException] = []
+
+    async def main() -> None:
+        async with with_process_modules(nav):
+            try:
+                await perform(a.motion(type="going", pose=HOME))
+            except NavigationPoseUnreachable as failure:
+                caught.append(failure)
+
+    mrun(main, name="no-cycle")
+    (failure,) = caught
+    frames = []
+    tb = failure.__traceback__
+    while tb is not None:
+        frames.append(tb.tb_frame)
+        tb = tb.tb_next
+    perform_frames = [f for f in frames if f.f_code.co_name == "_perform_motion"]
+    assert perform_frames, "the failure passed through perform"
+    for frame in frames:
+        assert all(value is not failure for value in frame.f_locals.values()), (
+            f"{frame.f_code.co_name} still holds the failure"
+        )

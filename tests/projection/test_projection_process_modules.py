@@ -10,6 +10,7 @@ import pytest
 import cpl
 import executive
 from executive import (
+    DesignatorError,
     GripperClosedCompletely,
     ManipulationGoalNotReached,
     ManipulationPoseUnreachable,
@@ -189,7 +190,8 @@ def test_opening_without_a_gripper_is_not_for_the_grippers(mrun: Any, world: Wor
     async def body() -> None:
         await perform(a.motion(type="opening"))
 
-    with pytest.raises(NoProcessModule, match="no running process module accepts"):
+    # nothing accepts it, and it cannot resolve: the resolution error says what is missing
+    with pytest.raises(DesignatorError, match="needs a gripper property"):
         run_projected(mrun, world, body)
 
 

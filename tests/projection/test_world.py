@@ -136,7 +136,14 @@ def _random_run(seed: int) -> list[tuple[float, ...]]:
         out: list[tuple[float, ...]] = []
         for k in range(3):
             x, y = w.rng.uniform([1.25, 0.0], [1.6, 0.9])
-            w.spawn_object(f"o{k}", "cup", Pose((x, y, 0.905), (0, 0, math.sin(k), math.cos(k))))
+            # random spawns may overlap: allowed here, the physics that sorts them out is
+            # what must be reproducible
+            w.spawn_object(
+                f"o{k}",
+                "cup",
+                Pose((x, y, 0.905), (0, 0, math.sin(k), math.cos(k))),
+                allow_overlap=True,
+            )
             w.attach(f"o{k}", "r_gripper_tool_frame")
             w.detach(f"o{k}", settle_steps=30)
         for k in range(3):

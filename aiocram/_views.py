@@ -1,0 +1,238 @@
+"""What ``aiocram demo`` shows on the console: a live view that keeps the robot in sight,
+and the collapsed tree printed at the end.
+
+The live view (:class:`DemoView`) is three parts, each short enough for an 80-column
+terminal: a progress line (object k of n, its name, simulated and wall time), the running
+path (the chain of running tasks from the root to the deepest one, each with the action
+type and the object it is about, so the object's name is never cut off behind a long
+designator), and the failures of the current object folded into one line per kind with a
+count. Failures inside imagined runs (``projection-run-*``) are not the robot's: they are
+left out of the counts.
+
+:func:`final_tree` is the tree printed after the run: the root (finished), one line per
+top-level step, each step's failures folded the same way.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import re
+import time
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from rich.console import Group, RenderableType
+from rich.text import Text
+from rich.tree import Tree
+
+import cpl
+from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration
+
+__all__ = ["DemoView", "Progress", "brief", "final_tree", "fold_failures"]
+
+_IMAGINED = "projection-run"
+_NUMBERED = re.compile(r"#\d+$")
+
+
+def imagined(task: Any) -> bool:
+    """Whether ``task`` runs inside an imagined (projection) run."""
+    return any(p.startswith(_IMAGINED) for p in task.path)
+
+
+def brief(task: Any) -> str:
+    """A few words on what ``task`` does: its action type and the object it is about
+    (``detecting spoon-1``), or ``""`` for tasks that are not performed actions."""
+    from executive import action_of
+
+    action = action_of(task)
+    if action is None:
+        return ""
+    words = [str(action.type)]
+    obj = action.get("object")
+    if obj is not None and hasattr(obj, "get"):
+        name = obj.get("name") or obj.get("type")
+        if name is not None:
+            words.append(str(name))
+    return " ".join(words)
+
+
+def _walk(task: Any) -> Iterator[Any]:
+    stack = [task]
+    while stack:
+        t = stack.pop()
+        yield t
+        stack.extend(reversed(t.children))
+
+
+def _base(task: Any) -> str:
+    return _NUMBERED.sub("", task.path_entry)
+
+
+def _failure_text(failure: BaseException | None, limit: int) -> str:
+    if failure is None:
+        return ""
+    text = f"{type(failure).__name__}: {failure}".replace("\n", " ")
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def fold_failures(tasks: Any) -> list[tuple[str, int, BaseException | None]]:
+    """Failed tasks (imagined ones left out) folded by name without its ``#N``: ``(name,
+    count, last failure)``, most frequent first."""
+    counts: Counter[str] = Counter()
+    last: dict[str, BaseException | None] = {}
+    for t in tasks:
+        if t.state is cpl.Status.FAILED and not imagined(t):
+            name = _base(t)
+            counts[name] += 1
+            last[name] = t.failure
+    return [(name, n, last[name]) for name, n in counts.most_common()]
+
+
+class Progress(cpl.Instrument):
+    """Follows the real (not imagined) transports: which object, which of how many."""
+
+    def __init__(
+        self, objects: Sequence[str], *, wall: Callable[[], float] = time.perf_counter
+    ) -> None:
+        self.objects = tuple(objects)
+        self.index = 0  # 1-based number of the current object; 0 before the first
+        self.current: Any = None  # the current transport task
+        self._wall = wall  # the wall clock (a test passes a fake one)
+        self.wall_start = wall()
+
+    def task_status_changed(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
+        if new is not cpl.Status.RUNNING or old is not cpl.Status.CREATED:
+            return
+        from executive import action_of
+
+        action = action_of(task)
+        if action is None or action.type != "transporting" or imagined(task):
+            return
+        self.index += 1
+        self.current = task
+
+    def line(self, sim_now: float | None, root: Any) -> Text:
+        n = len(self.objects)
+        k = min(self.index, n)
+        name = self.objects[k - 1] if k else "getting ready"
+        started = root.start_time
+        sim = sim_now - started if sim_now is not None and started is not None else 0.0
+        wall = self._wall() - self.wall_start
+        text = Text()
+        text.append(f"object {k} of {n}: ", style="bold")
+        text.append(name, style="bold cyan")
+        text.append(f" · simulated {sim:.1f} s · wall {wall:.1f} s", style="dim")
+        return text
+
+
+def _line(task: Any, *, extra: str = "") -> Text:
+    look = STATUS_STYLES[task.state]
+    text = Text(no_wrap=True, overflow="ellipsis")
+    text.append(look.glyph, style=look.style)
+    text.append(" ")
+    text.append(task.path_entry, style="bold" if task.kind == "top-level" else "")
+    what = brief(task)
+    if what:
+        text.append(f" {what}", style="cyan")
+    if extra:
+        text.append(extra, style="dim")
+    return text
+
+
+def running_path(root: Any) -> list[Any]:
+    """The chain of alive tasks from ``root`` down, following at each level the newest
+    alive child that is not an imagined run's (the real robot's work), else the newest
+    alive child."""
+    path = [root]
+    node = root
+    while True:
+        alive = [c for c in node.children if c.alive]
+        if not alive:
+            return path
+        real = [c for c in alive if not c.path_entry.startswith(_IMAGINED)]
+        node = (real or alive)[-1]
+        path.append(node)
+
+
+class DemoView(LiveTaskTree):
+    """The live view of ``aiocram demo`` (see the module docstring)."""
+
+    def __init__(self, root: Any, progress: Progress, **kwargs: Any) -> None:
+        super().__init__(root, **kwargs)
+        self.progress = progress
+
+    def renderable(self, *, final: bool = False) -> RenderableType:
+        root = self._task()
+        if root is None:
+            return Text("(no task yet)", style="dim")
+        try:
+            now: float | None = asyncio.get_running_loop().time()
+        except RuntimeError:
+            now = None
+        parts: list[RenderableType] = [self.progress.line(now, root)]
+        path = running_path(root)
+        for depth, task in enumerate(path):
+            line = Text("  " * depth)
+            line.append_text(_line(task))
+            line.no_wrap, line.overflow = True, "ellipsis"
+            parts.append(line)
+        scope = self.progress.current if self.progress.current is not None else root
+        folded = fold_failures(_walk(scope))
+        if folded:
+            summary = Text("failures so far: ", style="red", no_wrap=True, overflow="ellipsis")
+            summary.append(", ".join(f"{name} ×{n}" for name, n, _ in folded[:6]))
+            if len(folded) > 6:
+                summary.append(f", … ({len(folded) - 6} more kinds)")
+            parts.append(summary)
+        return Group(*parts)
+
+
+def final_tree(root: Any, *, log: str | None = None, ascii: bool = False) -> RenderableType:
+    """The collapsed tree of a finished run: the root, one line per top-level step (the
+    steps that finished without failing before the first transport folded into one line),
+    and under each step its failures folded by name with a count and the last failure.
+    With ``log``, a last line points to ``aiocram show --collapse LOG``."""
+    look = STATUS_STYLES[root.state]
+    label = Text()
+    label.append(look.ascii if ascii else look.glyph, style=look.style)
+    label.append(f" {root.path_entry} [top-level]", style="bold")
+    if root.end_time is not None and root.start_time is not None:
+        label.append(f" {format_duration(root.end_time - root.start_time)}", style="dim cyan")
+    if root.failure is not None:
+        label.append(f" — {_failure_text(root.failure, 80)}", style="red")
+    if root.evaporation is not None:
+        label.append(f" — evaporated: {root.evaporation.reason}", style="grey50")
+    tree = Tree(label, guide_style="dim")
+    quiet = 0
+    for child in root.children:
+        folded = fold_failures(_walk(child))
+        interesting = bool(folded) or brief(child).startswith("transporting")
+        if not interesting and child.state is cpl.Status.SUCCEEDED:
+            quiet += 1
+            continue
+        if quiet:
+            tree.add(Text(f"(+{quiet} finished)", style="dim"))
+            quiet = 0
+        duration = ""
+        if child.end_time is not None and child.start_time is not None:
+            duration = f" {format_duration(child.end_time - child.start_time)}"
+        failed = sum(n for _, n, _ in folded)
+        extra = duration + (f" — {failed} failed tasks" if failed else "")
+        branch = tree.add(_line(child, extra=extra))
+        if child.failure is not None:
+            branch.add(Text(_failure_text(child.failure, 100), style="red"))
+        for name, n, last in folded[:5]:
+            row = Text(no_wrap=True, overflow="ellipsis")
+            row.append("x" if ascii else "✘", style="bold red")
+            row.append(f" {name} ×{n}")
+            row.append(f" — last: {_failure_text(last, 90)}", style="red")
+            branch.add(row)
+        if len(folded) > 5:
+            branch.add(Text(f"… {len(folded) - 5} more kinds of failure", style="dim"))
+    if quiet:
+        tree.add(Text(f"(+{quiet} finished)", style="dim"))
+    if log is None:
+        return tree
+    hint = Text(f"the whole tree: aiocram show --collapse {log}", style="dim")
+    return Group(tree, hint)

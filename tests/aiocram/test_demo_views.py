@@ -1,0 +1,168 @@
+"""The demo's console views (golden files): the live view keeps the running path and the
+object's name visible at 80 columns and folds repeated failures; the final tree has a
+finished root and shows the failures, folded.
+
+Regenerate with ``AIOCRAM_REGEN_GOLDEN=1 python -m pytest tests/aiocram/test_demo_views.py``
+and read the diff.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import pytest
+from rich.console import Console
+
+import cpl
+from aiocram._views import DemoView, Progress, final_tree, fold_failures
+from cpl.testing import MockClock
+from executive import an
+
+GOLDEN = Path(__file__).parent / "golden"
+
+
+def _text(renderable, width: int = 80) -> str:
+    buffer = io.StringIO()
+    console = Console(
+        file=buffer,
+        width=width,
+        color_system=None,
+        force_terminal=False,
+        highlight=False,
+        emoji=False,
+        _environ={},
+    )
+    console.print(renderable)
+    return "".join(line.rstrip() + "\n" for line in buffer.getvalue().splitlines())
+
+
+def _check(name: str, text: str) -> None:
+    path = GOLDEN / name
+    if os.environ.get("AIOCRAM_REGEN_GOLDEN") == "1":
+        GOLDEN.mkdir(exist_ok=True)
+        path.write_text(text)
+    assert path.exists(), f"no golden file {path}: run with AIOCRAM_REGEN_GOLDEN=1"
+    assert text == path.read_text()
+
+
+class NotSeen(cpl.PlanFailure):
+    pass
+
+
+@cpl.plan(name="perception")
+async def _perception(fail: bool) -> str:
+    await cpl.sleep(0.5)
+    if fail:
+        raise NotSeen("no visible spoon")
+    return "spoon-1"
+
+
+@cpl.plan(name="perceive")
+async def _perceive(fails: int, frames: list[str], view: list[DemoView]) -> str:
+    spoon = an.object(type="spoon", name="spoon-1")
+    for _ in range(fails):
+        try:
+            await _perception(True).annotate(designator=an.action(type="detecting", object=spoon))
+        except NotSeen:
+            pass
+    if view:
+        frames.append(_text(view[0].renderable()))
+    return await _perception(False).annotate(designator=an.action(type="detecting", object=spoon))
+
+
+@cpl.plan(name="transport")
+async def _transport(fails: int, frames: list[str], view: list[DemoView]) -> None:
+    # a long designator: the live view must still show "spoon" at 80 columns
+    obj = an.object(type="spoon")
+    await _perceive(fails, frames, view).annotate(
+        designator=an.action(
+            type="searching",
+            object=obj,
+            location=an.object(type="drawer", urdf_name="sink_area_left_upper_drawer_main"),
+        )
+    )
+
+
+def _run(fails: int) -> tuple[list[str], cpl.Task]:
+    frames: list[str] = []
+    view: list[DemoView] = []
+    wall = iter(float(i) for i in range(1000))
+    progress = Progress(["bowl", "spoon"], wall=lambda: next(wall))
+    box: list[cpl.Task] = []
+
+    async def demo() -> None:
+        root = cpl.current_task()
+        box.append(root)
+        view.append(DemoView(root, progress))
+        for name in ("bowl", "spoon"):
+            await _transport(fails if name == "spoon" else 0, frames, view).annotate(
+                designator=an.action(type="transporting", object=an.object(type=name))
+            )
+
+    cpl.run(demo, name="demo", clock=MockClock(), instruments=[progress])
+    return frames, box[0]
+
+
+def test_live_view_keeps_the_running_path_and_folds_failures():
+    frames, _ = _run(fails=23)
+    assert len(frames) == 2
+    spoon = frames[1]
+    assert spoon.splitlines()[0].startswith("object 2 of 2: spoon")
+    assert "searching spoon" in spoon  # the object's name is not cut at 80 columns
+    assert "perception ×23" in spoon  # 23 failures, one line
+    assert spoon.count("\n") <= 8
+    _check("live_view_80.txt", spoon)
+
+
+def test_final_tree_has_a_finished_root_and_folded_failures():
+    _, root = _run(fails=5)
+    text = _text(final_tree(root, log="out/demo/log.jsonl"))
+    first = text.splitlines()[0]
+    assert first.startswith("✔ demo") and "running" not in text
+    assert "perception ×5" in text
+    assert "aiocram show --collapse out/demo/log.jsonl" in text
+    _check("final_tree_80.txt", text)
+
+
+def test_fold_failures_leaves_imagined_runs_out():
+    class T:
+        def __init__(self, path, state=cpl.Status.FAILED):
+            self.path = tuple(path.split("/"))
+            self.path_entry = self.path[-1]
+            self.state = state
+            self.failure = NotSeen("x")
+
+    tasks = [
+        T("demo/transport/perceive/perception"),
+        T("demo/transport/perceive/perception#2"),
+        T("demo/transport/projection-run-1/perceive/perception"),
+        T("demo/transport/perceive", cpl.Status.SUCCEEDED),
+    ]
+    assert [(n, k) for n, k, _ in fold_failures(tasks)] == [("perception", 2)]
+
+
+@pytest.mark.parametrize("width", [60, 80, 120])
+def test_live_view_lines_fit_the_width(width):
+    frames: list[str] = []
+    wall = iter(float(i) for i in range(1000))
+    progress = Progress(["spoon"], wall=lambda: next(wall))
+
+    async def demo() -> None:
+        view = DemoView(cpl.current_task(), progress)
+
+        async def grab() -> None:
+            frames.append(_text(view.renderable(), width))
+
+        @cpl.plan(name="transport")
+        async def transport() -> None:
+            await _perceive(3, [], [])
+            await grab()
+
+        await transport().annotate(
+            designator=an.action(type="transporting", object=an.object(type="spoon"))
+        )
+
+    cpl.run(demo, name="demo", clock=MockClock(), instruments=[progress])
+    assert all(len(line) <= width for line in frames[0].splitlines())

@@ -1,0 +1,103 @@
+"""Plan-level input errors are typed errors raised before anything moves (real PyBullet
+projection), and the demo's placing targets work for any subset and order of objects."""
+
+from __future__ import annotations
+
+import pytest
+
+from executive import DesignatorError, Pose, a, an, perform
+from plans.demo import fetch_location, place_location
+
+projection = pytest.importorskip("projection")
+
+
+def _state(world):
+    return (
+        world.robot_pose().position,
+        world.robot_pose().orientation,
+        world.arm_joints("left"),
+        world.arm_joints("right"),
+        world.gripper_opening("left"),
+        {n: world.object_pose(n).position for n in world.objects},
+    )
+
+
+def _run(mrun, world, action):
+    async def main():
+        async with projection.with_projected_robot(world):
+            await perform(action)
+
+    return mrun(main)
+
+
+@pytest.fixture
+def world():
+    w = projection.World(seed=3)
+    w.spawn_object("bowl-1", "bowl", Pose((1.4, 0.8, 0.87)))
+    yield w
+    w.close()
+
+
+def test_setting_gripper_out_of_range_is_an_error_not_ignored(mrun, world):
+    before = _state(world)
+    with pytest.raises(DesignatorError, match=r"from 0 to 0\.1; got 5"):
+        _run(mrun, world, an.action(type="setting-gripper", gripper="left", position=5))
+    assert _state(world) == before
+
+
+def test_unknown_surface_fails_before_the_robot_moves(mrun, world):
+    nowhere = an.object(type="counter-top", urdf_name="nowhere_surface", part_of="kitchen")
+    before = _state(world)
+    transport = an.action(
+        type="transporting",
+        object=an.object(type="bowl"),
+        location=fetch_location("bowl"),
+        target=a.location(on=nowhere),
+    )
+    with pytest.raises(DesignatorError, match="'nowhere_surface', which this world does not"):
+        _run(mrun, world, transport)
+    assert _state(world) == before
+    searching = an.action(
+        type="searching", object=an.object(type="bowl"), location=a.location(on=nowhere)
+    )
+    with pytest.raises(DesignatorError, match="nowhere_surface"):
+        _run(mrun, world, searching)
+    assert _state(world) == before
+
+
+def test_unknown_action_key_fails_before_the_robot_moves(mrun, world):
+    before = _state(world)
+    with pytest.raises(DesignatorError, match=r"unknown key 'objekt'.*known keys: location"):
+        _run(
+            mrun,
+            world,
+            an.action(type="searching", objekt=an.object(type="bowl"), location=Pose()),
+        )
+    assert _state(world) == before
+
+
+@pytest.mark.parametrize("object_type", ["cup", "spoon", "milk"])
+def test_placing_targets_need_the_bowl_only_once_it_is_placed(object_type):
+    alone = place_location(object_type, bowl_placed=False)
+    beside = place_location(object_type, bowl_placed=True)
+
+    def mentions_bowl(loc) -> bool:
+        return any(
+            getattr(v, "get", lambda _k: None)("name") == "bowl-1" for _k, v in loc.properties
+        )
+
+    assert not mentions_bowl(alone)
+    assert alone.get("context") == "table-setting"
+    assert mentions_bowl(beside)
+
+
+def test_opening_a_drawer_too_far_fails_before_the_arm_moves(mrun, world):
+    from plans.demo import DRAWER
+
+    before = _state(world)
+    with pytest.raises(DesignatorError, match=r"opened by at most 0\.480 m"):
+        _run(mrun, world, an.action(type="opening", object=DRAWER, arm="left", distance=5))
+    assert _state(world) == before
+    with pytest.raises(DesignatorError, match="distance must be a number of metres > 0"):
+        _run(mrun, world, an.action(type="opening", object=DRAWER, arm="left", distance=-1))
+    assert _state(world) == before
