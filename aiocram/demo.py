@@ -24,9 +24,12 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cpl
+
+if TYPE_CHECKING:  # projection (PyBullet) is imported when a demo runs, not with this module
+    from projection import World
 
 __all__ = ["DEFAULT_OBJECTS", "DemoConfig", "DemoReport", "add_parser", "run_demo", "run_demo_once"]
 
@@ -256,13 +259,15 @@ def _invariants(
 def _on_surface(world: Any, pose: Any, link: str) -> bool:
     (x0, y0, _z0), (x1, y1, z1) = world.link_aabb(link)
     x, y, z = pose.position
-    return x0 <= x <= x1 and y0 <= y <= y1 and z1 - 0.01 <= z <= z1 + 0.35
+    on: bool = x0 <= x <= x1 and y0 <= y <= y1 and z1 - 0.01 <= z <= z1 + 0.35
+    return on
 
 
 def _in_drawer(world: Any, pose: Any) -> bool:
     (x0, y0, z0), (x1, y1, z1) = world.link_aabb("sink_area_left_upper_drawer_main")
     x, y, z = pose.position
-    return x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1 + 0.05
+    inside: bool = x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1 + 0.05
+    return inside
 
 
 def _transport_times(root: cpl.Task, watch: _Watch) -> tuple[dict[str, float], dict[str, float]]:
@@ -337,7 +342,8 @@ def run_demo(
             interrupts.on_abort = lambda: outputs.commit(OUTPUT_FILES)
         instruments.append(cpl.EventLog(outputs.path("log.jsonl")))
     restore_logging = _route_plan_logs(None if outputs is None else outputs.path("plans.log"))
-    true_world = belief_world = None
+    true_world: World | None = None
+    belief_world: World | None = None
     outcomes: dict[str, Any] = {}
     engine_box: list[Any] = []
 
@@ -347,6 +353,7 @@ def run_demo(
 
         root = cpl.current_task()
         assert root is not None
+        assert true_world is not None and belief_world is not None  # made before the run
         if interrupts is not None:
             interrupts.attach(root)
         from projection._locations import location_rules

@@ -86,9 +86,7 @@ class Evaporated(asyncio.CancelledError):
         return f"evaporated by {who}: {self.reason}"
 
 
-def fail(
-    failure: BaseException | type[PlanFailure] | str | None = None, **details: Any
-) -> NoReturn:
+def fail(failure: PlanFailure | type[PlanFailure] | str | None = None, **details: Any) -> NoReturn:
     """Raise a plan failure (CRAM's ``fail``).
 
     - ``fail()`` raises ``PlanFailure("Plan failure.")``;

@@ -5,6 +5,7 @@ read the diff."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import re
@@ -15,10 +16,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-import itertools
-
-from docs_blocks import Block, blocks, matches, strip_lines
+from .docs_blocks import Block, blocks, matches, strip_lines
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]

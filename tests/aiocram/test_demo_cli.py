@@ -24,7 +24,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT), "COLUMNS": "80"}
 
 def aiocram(
     *args: str, cwd: Path | None = None, timeout: float = 240
-) -> subprocess.CompletedProcess:
+) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, "-m", "aiocram.cli", *args],
         capture_output=True,
@@ -143,7 +143,7 @@ def test_objects_in_any_order(tmp_path):
     assert "2/2 objects placed" in proc.stdout
 
 
-def _start_demo(out: Path) -> subprocess.Popen:
+def _start_demo(out: Path) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [
             sys.executable,
@@ -163,7 +163,7 @@ def _start_demo(out: Path) -> subprocess.Popen:
     )
 
 
-def _wait_for_the_robot(out: Path, proc: subprocess.Popen) -> None:
+def _wait_for_the_robot(out: Path, proc: subprocess.Popen[str]) -> None:
     """Until the run's staged event log shows the first transport (the robot moves)."""
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:

@@ -94,6 +94,7 @@ def _run(fails: int) -> tuple[list[str], cpl.Task]:
 
     async def demo() -> None:
         root = cpl.current_task()
+        assert root is not None
         box.append(root)
         view.append(DemoView(root, progress))
         for name in ("bowl", "spoon"):

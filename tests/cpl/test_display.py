@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from fake_tasks import FakeTask
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rich.console import Console
@@ -25,6 +24,7 @@ from cpl._status import Status
 from cpl._tree import FailureInfo, TaskNode, snapshot
 from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration, render, render_text
 from cpl.lowlevel import dump_task_tree
+from tests.cpl.fake_tasks import FakeTask
 
 GOLDEN_DIR = Path(__file__).parent / "golden"
 

@@ -10,13 +10,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from fake_tasks import FakeTask
 from rich.console import Console
 
 from cpl._eventlog import EVENT_SCHEMA, EventLog, load_events, tree_from_log
 from cpl._failures import Evaporated, PlanFailure
 from cpl._status import Status
 from cpl._tree import TaskNode, snapshot
+from tests.cpl.fake_tasks import FakeTask
 
 S = Status
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from typing import Any
 
 import pytest
 
@@ -18,7 +19,7 @@ class GripFailure(cpl.PlanFailure):
 
 
 def test_retry_reruns_body_until_counter_exhausted(mrun):
-    attempts = []
+    attempts: list[int] = []
     counter = cpl.RetryCounter(3)
 
     async def body():
@@ -68,7 +69,7 @@ def test_return_from_handler(mrun):
 
 def test_decline_tries_next_matching_clause_then_same_object_propagates(mrun):
     boom = NavFailure("x")
-    calls = []
+    calls: list[Any] = []
 
     async def body():
         raise boom
@@ -272,7 +273,7 @@ def test_nested_counters_reset_on_outer_retry(mrun):
 
 def test_with_retry_sugar(mrun):
     attempts = []
-    before = []
+    before: list[Any] = []
 
     async def body():
         attempts.append(1)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 import cpl
@@ -26,7 +28,7 @@ async def fail_after(failure, t, log=None):
 
 
 def test_seq_returns_last_and_stops_at_failure(mrun):
-    log = []
+    log: list[Any] = []
 
     async def main():
         assert await cpl.seq(value_after(1, 1), value_after(2, 1)) == 2
@@ -57,7 +59,7 @@ def test_par_returns_all_values_in_order(mrun):
 
 def test_par_failure_evaporates_siblings_and_keeps_identity(mrun):
     boom = cpl.PlanFailure("boom")
-    log = []
+    log: list[Any] = []
 
     async def main():
         try:
@@ -68,7 +70,9 @@ def test_par_failure_evaporates_siblings_and_keeps_identity(mrun):
     assert mrun(main, name="parfail") is boom
     assert log == ["slow"]  # sibling cleanup ran
     tree = cpl.task_tree("parfail")
+    assert tree is not None
     node = tree.find(lambda n: n.kind == "par")
+    assert node is not None
     assert node.status is cpl.Status.FAILED
     assert [c.status for c in node.children] == [cpl.Status.EVAPORATED, cpl.Status.FAILED]
 
@@ -95,7 +99,7 @@ def test_par_empty():
 
 
 def test_pursue_first_finisher_wins(mrun):
-    log = []
+    log: list[Any] = []
 
     async def main():
         return await cpl.pursue(value_after("slow", 5, log), value_after("fast", 1, log))
@@ -123,7 +127,7 @@ def test_pursue_success_before_failure(mrun):
 
 
 def test_try_all_first_success_and_no_cancel_on_failure(mrun):
-    log = []
+    log: list[Any] = []
 
     async def main():
         return await cpl.try_all(
@@ -149,7 +153,7 @@ def test_try_all_composite_only_when_all_failed(mrun):
 
 
 def test_try_all_programming_error_propagates_at_once(mrun):
-    log = []
+    log: list[Any] = []
 
     async def main():
         await cpl.try_all(value_after("x", 10, log), fail_after(TypeError("bug"), 1))
@@ -206,6 +210,7 @@ def test_tag_names_branches(mrun):
 
     assert mrun(main, name="tags") == 3
     tree = cpl.task_tree("tags")
+    assert tree is not None
     names = [n.name for n in tree.walk()]
     assert {"left", "right", "solo", "par"} <= set(names)
 
@@ -275,7 +280,7 @@ def test_forms_need_a_task():
 
 def test_form_rejects_garbage(mrun):
     async def main():
-        await cpl.par(value_after(1, 1), 42)
+        await cpl.par(value_after(1, 1), 42)  # type: ignore[arg-type]
 
     with pytest.raises(TypeError, match="forms take"):
         mrun(main)
@@ -301,4 +306,5 @@ def test_retry_rerun_gets_call_numbers(mrun):
     with pytest.raises(cpl.PlanFailure):
         mrun(main, name="calls")
     tree = cpl.task_tree("calls")
+    assert tree is not None
     assert [c.path[-1] for c in tree.children] == ["attempt", "attempt#2", "attempt#3"]

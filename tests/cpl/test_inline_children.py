@@ -36,6 +36,7 @@ def test_evaporating_an_inline_child_leaves_the_parent_running(mrun: Any) -> Non
 
     async def main() -> Any:
         me = cpl.current_task()
+        assert me is not None
 
         async def killer() -> None:
             await cpl.sleep(2)

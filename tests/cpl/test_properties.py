@@ -158,7 +158,7 @@ def test_random_trees_keep_invariants(spec, kills):
     """Random trees with orphans, spawned subtrees, nested teardowns and up to three
     evaporations at random times (also of tasks already tearing down). Each example is
     guarded: a hang fails with the task tree instead of blocking the suite."""
-    counts = collections.Counter()
+    counts: collections.Counter[int] = collections.Counter()
     rec = Recorder()
     ids = iter(range(10_000))
     body = build(spec, counts, ids)

@@ -51,6 +51,7 @@ def test_on_suspension_handlers_run_innermost_first_before_suspended(mrun):
 
     async def worker():
         me = cpl.current_task()
+        assert me is not None
 
         async def outer_handler():
             log.append(("outer", me.state))
@@ -165,7 +166,10 @@ def test_child_suspends_its_own_parent():
 
     async def child():
         await cpl.sleep(1)
-        parent = cpl.current_task().parent
+        me = cpl.current_task()
+        assert me is not None
+        parent = me.parent
+        assert parent is not None
 
         async def wake():
             await asyncio.sleep(4)  # plain asyncio: not part of the suspended tree

@@ -6,7 +6,6 @@ import dataclasses
 import json
 
 import pytest
-from fake_tasks import FakeTask
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -22,6 +21,7 @@ from cpl._tree import (
     short_repr,
     snapshot,
 )
+from tests.cpl.fake_tasks import FakeTask
 
 # --------------------------------------------------------------------------- fake tasks
 

@@ -61,7 +61,8 @@ def test_previous_sibling_scans_backwards():
     assert previous_sibling(second_a, name="b1") is None  # not a sibling
     assert previous_sibling(find_tasks(root, name="a")[0], name="a") is None
     assert previous_sibling(root) is None
-    assert previous_sibling(second_a, state=cpl.Status.SUCCEEDED).name == "b"
+    done_before = previous_sibling(second_a, state=cpl.Status.SUCCEEDED)
+    assert done_before is not None and done_before.name == "b"
 
 
 def test_ancestors_go_up_to_the_top_level():
