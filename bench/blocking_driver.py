@@ -16,7 +16,9 @@ late each wake-up is. It runs while one motion is performed by
   threads help much less here; shown for honesty.
 
 Each driver call takes about 0.3 s of wall time in 20 steps. The configurations are run
-interleaved, N times each (default 3); the percentiles are over all wake-ups. Printed
+interleaved, N times each (default 3), after one uncounted warm-up run of each (the first
+``to_thread`` call of a process imports anyio's thread machinery and starts the first worker
+thread: a one-off stall of 30-50 ms on this machine); the percentiles are over all wake-ups. Printed
 as p50 / p99 / max lateness in ms and as ratios against ``idle`` and ``threaded``.
 """
 
@@ -86,15 +88,20 @@ def measure(pm: ProcessModule | None) -> list[float]:
     lateness: list[float] = []
 
     done = False
+    started = False
 
     async def ticker() -> None:
+        nonlocal started
         while not done:  # the wake-up pending when the work ends is still measured
+            started = True
             t0 = time.perf_counter()
             await cpl.sleep(PERIOD_S)
             lateness.append(time.perf_counter() - t0 - PERIOD_S)
 
     async def work() -> None:
         nonlocal done
+        while not started:  # the ticker is asleep before the driver may block the loop
+            await cpl.sleep(0)
         try:
             if pm is None:
                 await cpl.sleep(STEPS * STEP_S)
@@ -129,7 +136,8 @@ def main() -> None:
         "threaded-cpu": lambda: Threaded(busy_driver),
     }
     samples: dict[str, list[float]] = {k: [] for k in configs}
-    measure(None)  # warm-up
+    for make in configs.values():  # warm-up, not counted: imports, the first worker thread
+        measure(make())
     for _ in range(rounds):
         for name, make in configs.items():
             samples[name] += measure(make())

@@ -82,6 +82,8 @@ class CancelRequest:
         moment of the request; at once if it already was). For drivers that block in a
         call they cannot poll from: send the hardware its stop command here. Must be
         quick; an exception is logged."""
+        if not callable(fn):
+            raise TypeError(f"add_callback(fn): fn is called with the request, got {fn!r}")
         if self.requested:
             self._call(fn)
         else:

@@ -73,6 +73,16 @@ def _attempt_groups(root: cpl.TaskNode, name: str) -> list[list[cpl.TaskNode]]:
     return groups
 
 
+def _status(outcome: str | cpl.Status) -> cpl.Status:
+    if isinstance(outcome, cpl.Status):
+        return outcome
+    try:
+        return cpl.Status[str(outcome).upper()]
+    except KeyError:
+        names = ", ".join(s.name.lower() for s in cpl.Status)
+        raise ValueError(f"unknown task status {outcome!r}; use one of {names}") from None
+
+
 def assert_attempts(
     tree: TreeLike, name: str, outcomes: Sequence[str | cpl.Status], *, under: str | None = None
 ) -> list[cpl.TaskNode]:
@@ -82,7 +92,7 @@ def assert_attempts(
     "succeeded"]`` says "two failed attempts, then one that succeeded". Returns the
     attempts. Raises ``AssertionError`` with the tree when no parent's calls match.
     """
-    want = [o if isinstance(o, cpl.Status) else cpl.Status[str(o).upper()] for o in outcomes]
+    want = [_status(o) for o in outcomes]
     root = as_tree(tree)
     scopes = [n for n in _walk(root) if n.name == under] if under is not None else [root]
     if under is not None and not scopes:

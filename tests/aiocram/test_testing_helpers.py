@@ -137,7 +137,7 @@ def run_retries(name: str, failures: int) -> cpl.TaskNode:
             raise cpl.PlanFailure(f"attempt {calls}")
         return "ok"
 
-    async def main() -> str:
+    async def main() -> Any:
         return await cpl.with_retry(lambda: cpl.tag("step", step()), on=cpl.PlanFailure, counter=5)
 
     cpl.run(main, name=name, clock=MockClock())
@@ -163,3 +163,5 @@ def test_tree_assertions_pass_and_fail_with_the_tree() -> None:
         as_tree("never-ran")
     with pytest.raises(ValueError, match="times"):
         assert_retried(tree, "step", -1)
+    with pytest.raises(ValueError, match="unknown task status 'succeded'; use one of created"):
+        assert_retried(tree, "step", 2, then="succeded")

@@ -533,7 +533,7 @@ def test_memory_object_stream_feeds_a_fluent_and_evaporation_stops_the_pump(
 
     async def main() -> Any:
         send, receive = anyio.create_memory_object_stream[int](max_buffer_size=4)
-        distance = cpl.Fluent(math.inf, name="distance")
+        distance: cpl.Fluent[float] = cpl.Fluent(math.inf, name="distance")
 
         async def pump() -> None:  # stream -> fluent, forever
             try:
@@ -587,3 +587,45 @@ def test_fluent_updated_from_a_worker_thread_through_anyio_from_thread(cpl_run: 
     # Sets from the thread may land between two wake-ups of the watcher (it then reads the
     # latest value): what it sees only grows, and it ends at the last value.
     assert seen == sorted(seen) and seen[-1] == 3 and set(seen) <= {1, 2, 3}
+
+
+def test_fluents_feed_anyio_code_outside_any_plan() -> None:
+    """The other direction: plain anyio tasks of the application (outside every cpl task)
+    wait on a fluent a plan sets, and receive its changes through a memory object stream."""
+
+    async def app() -> Any:
+        arrived = cpl.Fluent(False, name="arrived")
+        position = cpl.Fluent(0, name="position")
+        send, receive = anyio.create_memory_object_stream[int](max_buffer_size=10)
+        got: list[int] = []
+        waited: list[float] = []
+
+        async def plan() -> None:
+            for x in (1, 2, 3):
+                await cpl.sleep(1.0)
+                position.value = x
+            arrived.value = True
+
+        async def forward() -> None:  # fluent -> stream, in a cpl branch
+            async with send:
+                async for _ in cpl.whenever(cpl.pulsed(position, handle_missed="always")):
+                    await send.send(position.value)
+                    if position.value == 3:
+                        return
+
+        async def consumer() -> None:  # plain anyio code
+            async with receive:
+                async for x in receive:
+                    got.append(x)
+
+        async def waiter() -> None:  # plain anyio code waiting on a fluent
+            await cpl.wait_for(arrived)
+            waited.append(anyio.current_time())
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(consumer)
+            tg.start_soon(waiter)
+            await cpl.top_level(cpl.par(plan(), forward()), name="producer")
+        return got, waited
+
+    assert run_app_guarded(app, clock=MockClock()) == ([1, 2, 3], [3.0])

@@ -238,6 +238,8 @@ def test_cancel_request_callbacks_run_on_the_loop_thread_at_the_request(cpl_run:
     late._set("already")
     late.add_callback(lambda req: log.append(f"late hook: {req.reason}"))
     assert log[-1] == "late hook: already" and late.requested and late.wait(0)
+    with pytest.raises(TypeError, match="add_callback"):
+        late.add_callback("stop the base")  # type: ignore[arg-type]
 
 
 def test_a_driver_that_ignores_the_request_is_abandoned_and_on_cancel_still_runs(
@@ -315,3 +317,85 @@ def test_a_goal_evaporated_while_queued_never_reaches_the_driver(cpl_run: Any) -
 
     assert cpl_run(main, clock=SYSTEM()) == ("done", cpl.Status.EVAPORATED)
     assert log.count("driver started") == 1
+
+
+def test_example_08_runs_and_the_monitor_stops_the_blocking_driver() -> None:
+    """examples/08_blocking_driver.py, as a user runs it (own process, time-out)."""
+    import os
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), *sys.path])}
+    proc = subprocess.run(
+        [sys.executable, "-W", "error", str(root / "examples" / "08_blocking_driver.py")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert re.fullmatch(r"monitor: base at x=1\.\d, stop it", lines[0]), lines
+    assert lines[1:3] == [
+        "driver stopped short of x=5: True, braked: True",
+        "loop ticks while the driver blocked: many",
+    ]
+    assert "~ navigation - evaporated" in proc.stdout
+
+
+def test_the_live_view_keeps_drawing_while_a_blocking_driver_works(cpl_run: Any) -> None:
+    """The live task-tree view redraws from the loop: it shows the running goal while the
+    driver blocks in its thread (the driver is released only after three such frames)."""
+    import io
+
+    from rich.console import Console
+
+    from cpl.display import LiveTaskTree
+
+    log: list[str] = []
+    driver = Driver(log)
+
+    class CountingView(LiveTaskTree):
+        def __init__(self, root: cpl.Task) -> None:
+            console = Console(file=io.StringIO(), width=100)
+            super().__init__(root, refresh_per_second=200, console=console, ascii=True)
+            self.root = root
+            self.frames_with_goal = 0
+
+        def refresh(self, *, final: bool = False) -> None:
+            super().refresh(final=final)
+            if any(t.name == "nav" and t.state is cpl.Status.RUNNING for t in cpl.walk(self.root)):
+                self.frames_with_goal += 1
+
+    class Nav(ThreadedNav):
+        def execute_blocking(self, motion: Any, cancel: CancelRequest) -> str:
+            result = self.driver.run(lambda k: None, cancel, steps=0)
+            self.driver.log.append("driver returned")
+            return result
+
+    nav = Nav(driver, cpl.Fluent(0, name="progress"))
+
+    async def main() -> Any:
+        root = cpl.current_task()
+        assert root is not None
+        view = CountingView(root)
+        async with view, with_process_modules(nav):
+
+            async def release_after_three_frames() -> None:
+                while view.frames_with_goal < 3:
+                    await cpl.sleep(0.005)
+                log.append("the view drew the running goal 3 times")
+                driver.release.set()
+
+            return await cpl.par(perform(going()), release_after_three_frames())
+
+    assert cpl_run(main, clock=SYSTEM()) == ["done", None]
+    assert log == [
+        "driver started",
+        "the view drew the running goal 3 times",
+        "driver released",
+        "driver returned",
+    ]
