@@ -100,11 +100,13 @@ def _jobs(
     first_seed: int,
     objects: tuple[str, ...],
 ) -> list[Job]:
+    # Seed-major: every prefix of the job list covers each (mode, fault rate) cell evenly,
+    # so a campaign stopped early (Ctrl-C, a deadline) still compares like with like.
     return [
         Job(seed=first_seed + s, fault_rate=f, projection=p, objects=objects)
+        for s in range(seeds)
         for p in modes
         for f in faults
-        for s in range(seeds)
     ]
 
 
