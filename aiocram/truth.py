@@ -39,6 +39,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import cpl
+from executive import kitchen
 
 __all__ = [
     "INVARIANTS",
@@ -66,10 +67,10 @@ ARM_TOLERANCE = 0.05
 #: plans keep them between actions, ``park`` at the sides).
 REST_CONFIGURATIONS = ("carry", "park")
 
-DRAWER_JOINT = "sink_area_left_upper_drawer_main_joint"
-DRAWER_LINK = "sink_area_left_upper_drawer_main"
-ISLAND = "kitchen_island_surface"
-SINK = "sink_area_surface"
+DRAWER_JOINT = kitchen.DRAWER_JOINT
+DRAWER_LINK = kitchen.DRAWER_LINK
+ISLAND = kitchen.ISLAND_SURFACE
+SINK = kitchen.SINK_SURFACE
 
 INVARIANTS = (
     "no_task_leaked",
