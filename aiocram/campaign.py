@@ -2,20 +2,27 @@
 (seed, fault rate), with and without projection reasoning.
 
 Each job is independent and seeded (:func:`aiocram.demo.run_demo_once`), so jobs can run
-anywhere: the ``local`` backend uses a process pool on this machine; the ``dask`` backend
-sends the very same jobs to a ``dask.distributed`` cluster (a ``LocalCluster`` by default,
-or the scheduler at ``--scheduler ADDRESS``), so a user who outgrows one machine adds
-workers, not code.
+anywhere: the ``local`` backend runs them on worker processes of this machine; the
+``dask`` backend sends the very same jobs to a ``dask.distributed`` cluster (a
+``LocalCluster`` by default, or the scheduler at ``--scheduler ADDRESS``), so a user who
+outgrows one machine adds workers, not code.
 
-Per fault rate it reports object success rate, retries used by kind, base distance driven,
-time, and the invariants that must hold in every run (no task alive after the run, no
-object lost or left attached, the drawer closed, the arms parked). Results go to
-``OUT/campaign.json`` and PNG plots (success rate and distance against fault rate, with and
-without projection).
+Every figure is measured on the true world (:mod:`aiocram.truth`): per fault rate, the
+objects *delivered* (upright on the island near where the plan placed them), what the
+plans *claimed*, the *phantoms* (claimed, not delivered), where the others ended up,
+retries by kind, base distance, time, and the invariants that must hold in every run
+(:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why.
+
+The harness keeps every finished run: each run's record is appended to ``OUT/runs.jsonl``
+as it ends; a local worker that dies (killed, crashed) is recorded as an ``error`` run of
+its job, replaced, and the campaign goes on; Ctrl-C stops the workers, writes the partial
+summary (``"partial": true``) and says so. All arguments are checked before any job starts
+or any file is written. The summary goes to ``OUT/campaign.json`` with PNG plots, and to
+the console as a table that fits 80 columns (the retries are in the JSON).
 
 Exit status: 0 when every invariant held in every run, 1 when some run violated one (the
-violations are in the report), 2 for bad arguments, 3 when the harness itself crashed in
-some run.
+violations are in the report), 2 for bad arguments, 3 when the harness itself failed in
+some run (a crash or a dead worker), 130 when interrupted.
 """
 
 from __future__ import annotations
@@ -24,17 +31,28 @@ import argparse
 import json
 import math
 import os
+import signal
 import statistics
 import sys
 import time
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Job", "main", "run_campaign", "summarise"]
+from aiocram.truth import INVARIANTS
+
+__all__ = [
+    "INVARIANTS",
+    "Job",
+    "check_objects",
+    "main",
+    "plan_campaign",
+    "run_campaign",
+    "summarise",
+    "summary_table",
+]
 
 
 @dataclass(frozen=True)
@@ -90,26 +108,136 @@ def _jobs(
     ]
 
 
-def _run_local(
-    jobs: list[Job], workers: int, progress: Callable[[int, int], None]
-) -> list[dict[str, Any]]:
+def _start_method() -> str:
+    import multiprocessing
+
+    return "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+
+
+def _worker_main(conn: Any) -> None:
+    """A local worker: run the jobs it is sent until it is sent ``None``. Ctrl-C is the
+    parent's to handle (a terminal sends SIGINT to the whole process group)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    while True:
+        try:
+            job = conn.recv()
+        except EOFError:
+            return
+        if job is None:
+            return
+        conn.send(run_job(job))
+
+
+class _Worker:
+    """One local worker process and the job it is running (None: idle)."""
+
+    def __init__(self, ctx: Any) -> None:
+        parent, child = ctx.Pipe()
+        self.conn = parent
+        self.proc = ctx.Process(target=_worker_main, args=(child,), daemon=True)
+        self.proc.start()
+        child.close()
+        self.job: Job | None = None  # invariant: not None while a job is in flight
+        self.t0 = 0.0
+
+    def send(self, job: Job) -> None:
+        self.job, self.t0 = job, time.perf_counter()
+        self.conn.send(job)
+
+    def stop(self, kill: bool = False) -> None:
+        if kill:
+            self.proc.kill()
+        else:
+            try:
+                self.conn.send(None)
+            except OSError:
+                pass
+        self.proc.join(timeout=5)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join()
+        self.conn.close()
+
+
+def _died(job: Job, exitcode: int | None, wall: float) -> dict[str, Any]:
+    """The record of a job whose worker process died (killed, or crashed the interpreter)."""
+    how = (
+        f"killed by {signal.Signals(-exitcode).name}"
+        if exitcode is not None and exitcode < 0
+        else f"exited with status {exitcode}"
+    )
+    return {
+        "seed": job.seed,
+        "fault_rate": job.fault_rate,
+        "projection": job.projection,
+        "error": f"WorkerDied: the worker process running this job was {how}",
+        "objects": {},
+        "invariants": {},
+        "wall_time_s": wall,
+    }
+
+
+def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], None]) -> None:
+    """Run ``jobs`` on ``workers`` worker processes (in this process when ``workers`` <= 1),
+    calling ``done(record)`` as each ends. A worker that dies (killed, segfault) is
+    recorded as an ``error`` run of its job and replaced; the other jobs go on. On
+    KeyboardInterrupt the workers are killed and the interrupt propagates."""
     if workers <= 1:
-        out = []
-        for i, job in enumerate(jobs):
-            out.append(run_job(job))
-            progress(i + 1, len(jobs))
-        return out
-    results: list[dict[str, Any]] = []
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        for i, res in enumerate(pool.map(run_job, jobs, chunksize=1)):
-            results.append(res)
-            progress(i + 1, len(jobs))
-    return results
+        for job in jobs:
+            done(run_job(job))
+        return
+    import multiprocessing
+    from multiprocessing.connection import wait
+
+    ctx = multiprocessing.get_context(_start_method())
+    queue = list(reversed(jobs))
+    pool: list[_Worker] = []
+    try:
+        pool = [_Worker(ctx) for _ in range(min(workers, len(jobs)))]
+        while True:
+            for i, w in enumerate(pool):
+                while w.job is None and queue:
+                    job = queue.pop()
+                    try:
+                        w.send(job)
+                    except OSError:  # died while idle: replace it, resend the job
+                        queue.append(job)
+                        w.stop(kill=True)
+                        w = pool[i] = _Worker(ctx)
+            busy = [w for w in pool if w.job is not None]
+            if not busy:
+                return
+            ready = set(wait([w.conn for w in busy] + [w.proc.sentinel for w in busy]))
+            for i, w in enumerate(pool):
+                if w.job is None or (w.conn not in ready and w.proc.sentinel not in ready):
+                    continue
+                record = None
+                try:
+                    if w.conn.poll():
+                        record = w.conn.recv()
+                except (EOFError, OSError):
+                    record = None
+                if record is not None:
+                    w.job = None
+                    done(record)
+                    continue
+                if w.proc.is_alive():
+                    continue  # the sentinel fired spuriously; the result is still coming
+                w.proc.join()
+                job, wall = w.job, time.perf_counter() - w.t0
+                w.job = None
+                exitcode = w.proc.exitcode
+                w.stop(kill=True)
+                pool[i] = _Worker(ctx)
+                done(_died(job, exitcode, wall))
+    finally:
+        for w in pool:
+            w.stop(kill=w.job is not None)
 
 
 def _run_dask(
-    jobs: list[Job], workers: int, scheduler: str | None, progress: Callable[[int, int], None]
-) -> list[dict[str, Any]]:
+    jobs: list[Job], workers: int, scheduler: str | None, done: Callable[[dict[str, Any]], None]
+) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -127,15 +255,68 @@ def _run_dask(
     try:
         futures = client.map(run_job, jobs, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
-        results: list[dict[str, Any] | None] = [None] * len(jobs)
-        for done, fut in enumerate(as_completed(futures), start=1):
-            results[index[fut.key]] = fut.result()
-            progress(done, len(jobs))
-        return [r for r in results if r is not None]
+        for fut in as_completed(futures):
+            try:
+                done(fut.result())
+            except Exception as exc:  # a worker died (KilledWorker) or the cluster failed
+                job = jobs[index[fut.key]]
+                done(
+                    {
+                        "seed": job.seed,
+                        "fault_rate": job.fault_rate,
+                        "projection": job.projection,
+                        "error": f"{type(exc).__name__}: {exc}",
+                        "objects": {},
+                        "invariants": {},
+                        "wall_time_s": 0.0,
+                    }
+                )
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def check_objects(objects: Sequence[str]) -> tuple[str, ...]:
+    """The demo objects as a tuple; unknown or repeated names, or none: ValueError saying
+    which names the demo knows."""
+    from aiocram.demo import DEFAULT_OBJECTS
+
+    objects = tuple(objects)
+    if not objects:
+        raise ValueError(f"--objects needs at least one of {' '.join(DEFAULT_OBJECTS)}")
+    unknown = [o for o in objects if o not in DEFAULT_OBJECTS]
+    if unknown:
+        raise ValueError(
+            f"--objects: unknown {' '.join(unknown)}; the demo knows {' '.join(DEFAULT_OBJECTS)}"
+        )
+    repeated = sorted({o for o in objects if objects.count(o) > 1})
+    if repeated:
+        raise ValueError(f"--objects: {' '.join(repeated)} given more than once")
+    return objects
+
+
+def plan_campaign(
+    *,
+    seeds: int,
+    faults: Sequence[float],
+    projection_modes: Sequence[bool] = (True, False),
+    backend: str = "local",
+    first_seed: int = 1,
+    objects: Sequence[str] = Job.objects,
+) -> list[Job]:
+    """Check every argument and return the jobs; nothing runs. Bad arguments:
+    ValueError naming what to fix."""
+    if seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {seeds}")
+    bad = [f for f in faults if math.isnan(f) or not (0.0 <= f <= 1.0)]
+    if bad:
+        raise ValueError(f"fault rates are probabilities in [0, 1], got {bad}")
+    if not faults:
+        raise ValueError("--faults needs at least one rate, e.g. 0,0.1")
+    if backend not in ("local", "dask"):
+        raise ValueError(f"unknown backend {backend!r}: use 'local' or 'dask'")
+    return _jobs(seeds, faults, projection_modes, first_seed, check_objects(objects))
 
 
 def run_campaign(
@@ -149,35 +330,56 @@ def run_campaign(
     first_seed: int = 1,
     objects: Sequence[str] = Job.objects,
     progress: Callable[[int, int], None] | None = None,
+    on_result: Callable[[dict[str, Any]], None] | None = None,
+    results: list[dict[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every (seed, fault rate, projection mode) job and return the raw results."""
-    if seeds < 1:
-        raise ValueError(f"--seeds must be at least 1, got {seeds}")
-    bad = [f for f in faults if not (0.0 <= f <= 1.0) or math.isnan(f)]
-    if bad:
-        raise ValueError(f"fault rates are probabilities in [0, 1], got {bad}")
-    jobs = _jobs(seeds, faults, projection_modes, first_seed, tuple(objects))
+    """Run every (seed, fault rate, projection mode) job and return the raw results, in
+    the order they ended. ``on_result(record)`` is called as each run ends (the command
+    appends it to ``runs.jsonl``); ``results``, if given, is the list they are appended
+    to, so a caller interrupted by Ctrl-C still holds every finished run. Arguments are
+    all checked before any job starts (ValueError)."""
+    jobs = plan_campaign(
+        seeds=seeds,
+        faults=faults,
+        projection_modes=projection_modes,
+        backend=backend,
+        first_seed=first_seed,
+        objects=objects,
+    )
+    out: list[dict[str, Any]] = [] if results is None else results
     report = progress or (lambda done, total: None)
+
+    def done(record: dict[str, Any]) -> None:
+        out.append(record)
+        if on_result is not None:
+            on_result(record)
+        report(len(out), len(jobs))
+
     if backend == "local":
-        return _run_local(jobs, workers, report)
-    if backend == "dask":
-        return _run_dask(jobs, workers, scheduler, report)
-    raise ValueError(f"unknown backend {backend!r}: use 'local' or 'dask'")
-
-
-INVARIANTS = ("no_task_alive", "no_object_lost", "nothing_attached", "drawer_closed", "arms_parked")
+        _run_local(jobs, workers, done)
+    else:
+        _run_dask(jobs, workers, scheduler, done)
+    return out
 
 
 def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
-    """Aggregate per (projection mode, fault rate): success rate, retries by kind, distance,
-    time, and invariant violations (each listed with its seed)."""
+    """Aggregate per (projection mode, fault rate): objects delivered (measured on the true
+    world), claimed by the plan, phantoms (claimed, not delivered), objects toppled or on
+    the floor, retries by kind, distance, time, and invariant violations (each listed with
+    its seed and why). ``success_rate`` is the delivered rate."""
     groups: dict[tuple[bool, float], list[dict[str, Any]]] = defaultdict(list)
     for r in results:
         groups[(bool(r["projection"]), float(r["fault_rate"]))].append(r)
     rows = []
     for (proj, rate), runs in sorted(groups.items()):
         objects = [o for r in runs for o in r.get("objects", {}).values()]
-        delivered = sum(1 for o in objects if o.get("success"))
+        delivered = sum(1 for o in objects if o.get("delivered"))
+        claimed = sum(1 for o in objects if o.get("claimed"))
+        phantoms = sum(1 for o in objects if o.get("claimed") and not o.get("delivered"))
+        where: dict[str, int] = defaultdict(int)
+        for o in objects:
+            if not o.get("delivered"):
+                where[str(o.get("where", "?")) + (" toppled" if o.get("toppled") else "")] += 1
         retries: dict[str, int] = defaultdict(int)
         for o in objects:
             for kind, n in (o.get("retries") or {}).items():
@@ -198,17 +400,26 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
                             "detail": r.get("violations", {}).get(name, ""),
                         }
                     )
+        total = len(objects)
         rows.append(
             {
                 "projection": proj,
                 "fault_rate": rate,
                 "runs": len(runs),
-                "objects": len(objects),
-                "success_rate": delivered / len(objects) if objects else 0.0,
+                "objects": total,
+                "delivered": delivered,
+                "claimed": claimed,
+                "phantoms": phantoms,
+                "delivered_rate": delivered / total if total else 0.0,
+                "claimed_rate": claimed / total if total else 0.0,
+                "success_rate": delivered / total if total else 0.0,
+                "not_delivered_where": dict(sorted(where.items())),
+                "cleanup_intervened": sum(1 for r in runs if r.get("cleanup_intervened")),
                 "retries": dict(sorted(retries.items())),
                 "mean_distance_m": statistics.fmean(distances) if distances else 0.0,
                 "mean_sim_time_s": statistics.fmean(sim_times) if sim_times else 0.0,
                 "mean_wall_time_s": statistics.fmean(r.get("wall_time_s", 0.0) for r in runs),
+                "runs_violating": len({v["seed"] for v in violations}),
                 "invariant_violations": violations,
             }
         )
@@ -250,34 +461,58 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
     return paths
 
 
-def _print_summary(summary: dict[str, Any]) -> None:
-    from rich.console import Console
+def summary_table(summary: dict[str, Any]) -> Any:
+    """The summary as a rich table that fits 80 columns (retries and violation details
+    are in ``campaign.json``)."""
+    from rich import box
     from rich.table import Table
 
-    table = Table(title="robustness campaign")
-    for col in (
-        "projection",
-        "fault rate",
-        "runs",
-        "success",
-        "distance (m)",
-        "sim time (s)",
-        "retries",
-        "violations",
+    table = Table(
+        title="robustness campaign (true world)",
+        box=box.SIMPLE_HEAD,
+        padding=(0, 1),
+        collapse_padding=True,
+    )
+    for col, justify in (
+        ("proj", "left"),
+        ("faults", "right"),
+        ("runs", "right"),
+        ("delivered", "right"),
+        ("claimed", "right"),
+        ("phantoms", "right"),
+        ("dist m", "right"),
+        ("sim s", "right"),
+        ("bad runs", "right"),
     ):
-        table.add_column(col)
+        table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
     for r in summary["rows"]:
         table.add_row(
             "yes" if r["projection"] else "no",
             f"{r['fault_rate']:.2f}",
             str(r["runs"]),
-            f"{100 * r['success_rate']:.1f} %",
+            f"{100 * r.get('delivered_rate', r['success_rate']):.1f} %",
+            f"{100 * r.get('claimed_rate', 0.0):.1f} %",
+            str(r.get("phantoms", 0)),
             f"{r['mean_distance_m']:.2f}",
-            f"{r['mean_sim_time_s']:.1f}",
-            ", ".join(f"{k} {v}" for k, v in r["retries"].items()) or "-",
-            str(len(r["invariant_violations"])),
+            f"{r['mean_sim_time_s']:.0f}",
+            str(r.get("runs_violating", len(r["invariant_violations"]))),
         )
-    Console().print(table)
+    return table
+
+
+def _print_summary(summary: dict[str, Any]) -> None:
+    from rich.console import Console
+
+    console = Console()
+    console.print(summary_table(summary))
+    kinds: dict[str, int] = defaultdict(int)
+    for r in summary["rows"]:
+        for v in r["invariant_violations"]:
+            kinds[v["invariant"]] += 1
+    if kinds:
+        console.print(
+            "violations by kind: " + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
+        )
 
 
 def add_parser(subparsers: Any) -> None:
@@ -309,6 +544,10 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _command(args: argparse.Namespace) -> int:
+    """Check every argument, then run; each run's record is appended to
+    ``OUT/runs.jsonl`` as it ends; the summary goes to ``OUT/campaign.json`` and the
+    console. Ctrl-C: the partial summary of the finished runs is written and printed,
+    exit 130."""
     try:
         faults = [float(x) for x in args.faults.split(",") if x.strip()]
     except ValueError:
@@ -320,38 +559,68 @@ def _command(args: argparse.Namespace) -> int:
     modes: tuple[bool, ...] = (False,) if args.no_projection else (True, False)
     if args.only_projection:
         modes = (True,)
+    settings = dict(
+        seeds=args.seeds,
+        faults=faults,
+        projection_modes=modes,
+        backend=args.backend,
+        first_seed=args.first_seed,
+        objects=args.objects,
+    )
+    try:
+        jobs = plan_campaign(**settings)  # type: ignore[arg-type]
+        if args.workers < 1:
+            raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    except ValueError as exc:
+        print(f"aiocram campaign: {exc}", file=sys.stderr)
+        return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
+    runs_path = out / "runs.jsonl"
+    runs_file = runs_path.open("w")
+
+    def append(record: dict[str, Any]) -> None:
+        runs_file.write(json.dumps(record) + "\n")
+        runs_file.flush()
 
     def progress(done: int, total: int) -> None:
         print(f"\r{done}/{total} runs", end="", file=sys.stderr, flush=True)
 
+    results: list[dict[str, Any]] = []
+    interrupted = False
     try:
-        results = run_campaign(
-            seeds=args.seeds,
-            faults=faults,
-            projection_modes=modes,
+        run_campaign(
+            **settings,  # type: ignore[arg-type]
             workers=args.workers,
-            backend=args.backend,
             scheduler=args.scheduler,
-            first_seed=args.first_seed,
-            objects=args.objects,
             progress=progress,
+            on_result=append,
+            results=results,
         )
-    except ValueError as exc:
-        print(f"\naiocram campaign: {exc}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        runs_file.close()
     print(file=sys.stderr)
     summary = summarise(results)
     summary["command"] = " ".join(["aiocram", *sys.argv[1:]])
     summary["backend"] = args.backend
     summary["workers"] = args.workers
     summary["wall_time_s"] = time.perf_counter() - t0
+    summary["runs_finished"] = len(results)
+    summary["runs_planned"] = len(jobs)
+    summary["partial"] = interrupted
     (out / "campaign.json").write_text(json.dumps({"summary": summary, "runs": results}, indent=2))
     plots = _plot(summary, out)
     _print_summary(summary)
-    print(f"wrote {out / 'campaign.json'} and {', '.join(str(p) for p in plots)}")
+    print(f"wrote {runs_path}, {out / 'campaign.json'} and {', '.join(str(p) for p in plots)}")
+    if interrupted:
+        print(
+            f"aiocram campaign: interrupted; partial summary of {len(results)} of {len(jobs)} runs",
+            file=sys.stderr,
+        )
+        return 130
     errors = sum(1 for r in results if "error" in r)
     if errors:
         print(

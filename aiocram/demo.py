@@ -27,16 +27,11 @@ from pathlib import Path
 from typing import Any
 
 import cpl
+from aiocram.truth import TruthObserver, TruthReport
 
 __all__ = ["DEFAULT_OBJECTS", "DemoConfig", "DemoReport", "add_parser", "run_demo", "run_demo_once"]
 
 DEFAULT_OBJECTS = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
-
-#: Joint-space tolerance (rad) for "the arms are parked".
-PARK_TOLERANCE = 0.05
-#: How far (m) an object may be from where it started and still count as "at its start".
-START_TOLERANCE = 0.15
-
 
 @dataclass
 class DemoConfig:
@@ -57,8 +52,9 @@ class DemoConfig:
 
 @dataclass
 class DemoReport:
-    """What happened: per-object outcomes, the invariants checked on the true world, and
-    times (simulated robot seconds; wall seconds spent imagining)."""
+    """What happened: per-object outcomes as the plan reported them, the truth measured
+    on the true world (:class:`aiocram.truth.TruthReport`: delivered objects, phantoms,
+    the invariants), and times (simulated robot seconds; wall seconds spent imagining)."""
 
     config: DemoConfig
     outcomes: dict[str, Any]
@@ -69,16 +65,25 @@ class DemoReport:
     imagined_wall_s: dict[str, float] = field(default_factory=dict)
     real_sim_s: dict[str, float] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
+    truth: TruthReport | None = None
 
     @property
     def delivered(self) -> int:
+        """Objects delivered, measured on the true world."""
+        return 0 if self.truth is None else self.truth.delivered
+
+    @property
+    def claimed(self) -> int:
+        """Objects the plan reported placed."""
         return sum(1 for o in self.outcomes.values() if o.success)
 
     def to_json(self) -> dict[str, Any]:
         objects = {}
         for name, o in self.outcomes.items():
+            truth = None if self.truth is None else self.truth.objects.get(o.name)
             objects[name] = {
-                "success": o.success,
+                **({} if truth is None else truth.to_json()),
+                "claimed": o.success,
                 "failure": None if o.failure is None else type(o.failure).__name__,
                 "retries": dict(o.retries),
                 "distance_driven": o.distance,
@@ -93,6 +98,7 @@ class DemoReport:
             "real_time_s": self.sim_time_s,
             "invariants": dict(self.invariants),
             "violations": dict(self.violations),
+            "cleanup_intervened": [] if self.truth is None else list(self.truth.cleanup_intervened),
         }
 
 
@@ -133,69 +139,6 @@ def _faults(config: DemoConfig) -> Any:
             profile = replace(profile, seed=config.seed)
         return profile
     return config.faults
-
-
-def _invariants(
-    true_world: Any, spawned: dict[str, Any], watch: _Watch
-) -> tuple[dict[str, bool], dict[str, str]]:
-    """Check, on the true world after the run: no task alive, every object on the island,
-    at its start, or on the sink counter (none fallen or lost), nothing attached to the
-    robot, the drawer closed, the arms parked."""
-    from executive.knowledge import arm_configuration
-
-    ok: dict[str, bool] = {}
-    why: dict[str, str] = {}
-    alive = [t for t in watch.tasks if t.alive]
-    ok["no_task_alive"] = not alive
-    if alive:
-        why["no_task_alive"] = ", ".join("/".join(t.path) for t in alive[:5])
-    held = [n for n, link in true_world.attachments.items() if not link.startswith("sink_area")]
-    ok["nothing_attached"] = not held
-    if held:
-        why["nothing_attached"] = f"still attached: {held}"
-    lost = []
-    for name, start in spawned.items():
-        if name not in true_world.objects:
-            lost.append(f"{name} is gone")
-            continue
-        pose = true_world.object_pose(name)
-        if _on_surface(true_world, pose, "kitchen_island_surface"):
-            continue
-        if pose.distance_to(start) <= START_TOLERANCE:
-            continue
-        if _on_surface(true_world, pose, "sink_area_surface") or _in_drawer(true_world, pose):
-            continue
-        lost.append(f"{name} at {tuple(round(v, 2) for v in pose.position)}")
-    ok["no_object_lost"] = not lost
-    if lost:
-        why["no_object_lost"] = "; ".join(lost)
-    drawer = true_world.joint_position("sink_area_left_upper_drawer_main_joint")
-    ok["drawer_closed"] = abs(drawer) < 0.01
-    if not ok["drawer_closed"]:
-        why["drawer_closed"] = f"drawer open {drawer:.3f} m"
-    park = {arm: arm_configuration("park", arm) for arm in ("left", "right")}
-    off = []
-    for arm, target in park.items():
-        now = true_world.arm_joints(arm)
-        err = max(abs(a - b) for a, b in zip(now, target))
-        if err > PARK_TOLERANCE:
-            off.append(f"{arm} arm {err:.2f} rad from park")
-    ok["arms_parked"] = not off
-    if off:
-        why["arms_parked"] = "; ".join(off)
-    return ok, why
-
-
-def _on_surface(world: Any, pose: Any, link: str) -> bool:
-    (x0, y0, _z0), (x1, y1, z1) = world.link_aabb(link)
-    x, y, z = pose.position
-    return x0 <= x <= x1 and y0 <= y <= y1 and z1 - 0.01 <= z <= z1 + 0.35
-
-
-def _in_drawer(world: Any, pose: Any) -> bool:
-    (x0, y0, z0), (x1, y1, z1) = world.link_aabb("sink_area_left_upper_drawer_main")
-    x, y, z = pose.position
-    return x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1 + 0.05
 
 
 def _transport_times(root: cpl.Task, watch: _Watch) -> tuple[dict[str, float], dict[str, float]]:
@@ -276,6 +219,7 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
         files.append(log)
     restore_logging = _route_plan_logs(config.out)
     true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
+    observer = TruthObserver(true_world, belief_world, lambda: watch.tasks)
     outcomes: dict[str, Any] = {}
 
     async def main() -> dict[str, Any]:
@@ -283,7 +227,10 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
 
         root = cpl.current_task()
         assert root is not None
-        async with with_real_robot(true_world, belief_world, faults=faults, speed=config.speed):
+        async with with_real_robot(
+            true_world, belief_world, faults=faults, speed=config.speed
+        ) as env:
+            observer.subscribe(env)
             if config.live:
                 async with LiveTaskTree(root, console=console, refresh_per_second=4):
                     result = await table_setting(
@@ -294,6 +241,7 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
                         projection_reasoning=config.projection,
                         projection_runs=config.runs,
                         spawn=False,
+                        before_cleanup=observer.before_cleanup,
                     )
             else:
                 result = await table_setting(
@@ -304,12 +252,14 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
                     projection_reasoning=config.projection,
                     projection_runs=config.runs,
                     spawn=False,
+                    before_cleanup=observer.before_cleanup,
                 )
+            observer.body_returned()
         return dict(result)
 
     t0 = time.perf_counter()
     try:
-        spawned = _set_up_scene(true_world, config)
+        _set_up_scene(true_world, config)
         root_box: list[cpl.Task] = []
 
         class _Root(cpl.Instrument):
@@ -325,12 +275,21 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
         wall = time.perf_counter() - t0
         root = root_box[0]
         sim = (root.end_time or 0.0) - (root.start_time or 0.0)
-        invariants, violations = _invariants(true_world, spawned, watch)
+        truth = observer.measure({o.name: o.success for o in outcomes.values()})
         real_sim, imagined = _transport_times(root, watch)
         if config.out is not None:
             files.extend(_write_pictures(config.out, true_world, belief_world, root))
         return DemoReport(
-            config, outcomes, invariants, violations, sim, wall, imagined, real_sim, files
+            config,
+            outcomes,
+            truth.invariants,
+            truth.violations,
+            sim,
+            wall,
+            imagined,
+            real_sim,
+            files,
+            truth,
         )
     finally:
         restore_logging()
@@ -438,7 +397,13 @@ def _print_report(report: DemoReport, console: Any) -> None:
     ):
         table.add_column(col)
     for name, o in report.outcomes.items():
-        outcome = "[green]placed[/]" if o.success else f"[red]{type(o.failure).__name__}[/]"
+        truth = None if report.truth is None else report.truth.objects.get(o.name)
+        if truth is not None and truth.delivered:
+            outcome = "[green]delivered[/]"
+        elif truth is not None and truth.phantom:
+            outcome = f"[red]phantom ({truth.where})[/]"
+        else:
+            outcome = f"[red]{type(o.failure).__name__}[/]"
         retries = ", ".join(f"{k} {v}" for k, v in sorted(o.retries.items()) if v) or "-"
         table.add_row(
             name,
@@ -450,9 +415,12 @@ def _print_report(report: DemoReport, console: Any) -> None:
         )
     console.print(table)
     console.print(
-        f"{report.delivered}/{len(report.outcomes)} objects placed; simulated "
+        f"{report.delivered}/{len(report.outcomes)} objects delivered (true world; the plan"
+        f" claimed {report.claimed}); simulated "
         f"{report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time"
     )
+    if report.truth is not None and report.truth.cleanup_intervened:
+        console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     bad = {k: report.violations.get(k, "") for k, v in report.invariants.items() if not v}
     if bad:
         console.print(f"[red]invariants violated:[/] {bad}")

@@ -88,6 +88,11 @@ class WorldQueries(WorldModel, Protocol):
         extent for it)."""
         ...
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """The distance (m) between ``arm``'s finger pads, from the robot's joint states;
+        None when the world does not know it (plans then cannot verify a grasp)."""
+        ...
+
 
 @dataclass(frozen=True)
 class ProbeResult:

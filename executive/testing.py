@@ -176,6 +176,10 @@ class InMemoryWorld:
         held = self.attached(arm)
         return held[0] if held else None
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """Unknown (None): an in-memory robot has no fingers. Tests replace it."""
+        return None
+
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         try:
             pose = self.links[link]

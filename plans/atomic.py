@@ -29,6 +29,7 @@ Every plan is evaporation-safe: it holds no resources, and ``going`` emits its
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator, Sequence
 from itertools import zip_longest
 from typing import Any
@@ -47,15 +48,18 @@ from executive import (
     PtuLowLevelFailure,
     a,
     an,
+    current_environment,
     emit,
     equate,
     knowledge,
     perform,
     rule,
 )
-from executive.events import ObjectPerceived, RobotStateChanged
+from executive.events import ObjectDetached, ObjectPerceived, RobotStateChanged
 
-from ._common import CountedRetries, as_location, perform_ignoring
+from ._common import CountedRetries, as_location, perform_ignoring, wrist_link
+
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "go_to_target",
@@ -219,16 +223,32 @@ async def move_arms_in_sequence(
 ) -> None:
     """Perform ``moving-tcp`` through the waypoint pairs (the shorter list padded with
     ``None``: that arm stays). Manipulation low-level failures at intermediate waypoints
-    are ignored; at the last waypoint they propagate."""
+    are ignored; at the last waypoint they propagate. Deliberate difference from CRAM: a
+    *gripper* failure (the held object fell out during the motion) is never ignored: the
+    caller must learn that the hand is empty (see :func:`plans.pick_place.pick_up`)."""
     pairs = [(lp, rp) for lp, rp in zip_longest(left_poses, right_poses) if lp or rp]
     for i, (lp, rp) in enumerate(pairs):
         motion = a.motion(
             type="moving-tcp", left_pose=lp, right_pose=rp, collision_mode=collision_mode
         )
         if i < len(pairs) - 1:
-            await perform_ignoring(motion, ManipulationLowLevelFailure)
+
+            async def move(motion: Designator = motion) -> None:
+                await perform(motion)
+
+            await cpl.with_failure_handling(
+                move,
+                [
+                    (GripperLowLevelFailure, _reraise),
+                    (ManipulationLowLevelFailure, lambda _f: cpl.return_(None)),
+                ],
+            )
         else:
             await perform(motion)
+
+
+def _reraise(failure: BaseException) -> None:
+    raise failure
 
 
 _COLLISION_MODES = {
@@ -263,9 +283,37 @@ for _action_type in _COLLISION_MODES:
 
 @cpl.plan(name="position-arms")
 async def position_arms(left: tuple[float, ...] | None, right: tuple[float, ...] | None) -> None:
-    """Perform ``moving-arm-joints``; manipulation low-level failures are ignored."""
+    """Perform ``moving-arm-joints``; manipulation low-level failures are ignored.
+    Deliberate difference from CRAM: a gripper failure (the held object fell out while the
+    arm moved) is ignored too, but not silently: the world model is told with
+    ``ObjectDetached`` (so the belief does not keep a phantom object in the hand, which a
+    later ``placing`` would "put down"), and it is logged."""
     motion = a.motion(type="moving-arm-joints", left_joint_states=left, right_joint_states=right)
-    await perform_ignoring(motion, ManipulationLowLevelFailure)
+
+    async def move() -> None:
+        await perform(motion)
+
+    def dropped(failure: BaseException) -> None:
+        _object_fell_out(failure, [arm for arm, q in (("left", left), ("right", right)) if q])
+        cpl.return_(None)
+
+    await cpl.with_failure_handling(
+        move,
+        [
+            (GripperLowLevelFailure, dropped),
+            (ManipulationLowLevelFailure, lambda _f: cpl.return_(None)),
+        ],
+    )
+
+
+def _object_fell_out(failure: BaseException, arms: Sequence[str]) -> None:
+    world = current_environment().world
+    for arm in arms:
+        name = world.object_in_hand(arm)
+        if name is None:
+            continue
+        _log.warning("%s fell out of the %s gripper while moving the arm: %s", name, arm, failure)
+        emit(ObjectDetached(an.object(name=name), arm, wrist_link(arm)))
 
 
 def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:

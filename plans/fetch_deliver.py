@@ -22,6 +22,7 @@ Deliberate fix: ``deliver``'s outer retry reads the *advanced* target (HEAD read
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -52,6 +53,7 @@ from executive import (
     an,
     current_environment,
     kitchen,
+    knowledge,
     perform,
     retry_scope,
     rule,
@@ -93,6 +95,8 @@ __all__ = [
     "turn_towards",
 ]
 
+log = logging.getLogger(__name__)
+
 #: The robot name in ``reachable-for`` / ``visible-for`` location designators.
 ROBOT = "pr2"
 
@@ -115,12 +119,53 @@ def _object(d: Designator) -> ObjectDesignator:
 @cpl.plan(name="go-without-collisions")
 async def go_without_collisions(location: LocationDesignator) -> None:
     """Park the arms (carry), pick a collision-free sample of ``location`` (up to 30,
-    :func:`check_navigating_collisions`), and go there; navigation low-level failures of
-    the going are ignored. Raises ``NavigationGoalInCollision`` (also for designator
-    errors)."""
+    :func:`check_navigating_collisions`), and go there; a navigation low-level failure
+    (the base stopped short: a fault, or a collision on the way) drives again from where
+    it stopped (:data:`NAVIGATION_RETRIES`), unless it stopped within
+    :data:`NAVIGATION_TOLERANCE` of the goal (logged). Raises ``NavigationGoalInCollision``
+    (also for designator errors, and when the goal was never reached).
+
+    Deliberate difference from CRAM, which ignored the going's failures: the plan went on
+    from wherever the base had stopped (e.g. short of the island, where every placing
+    then failed IK), and the caller's relocation scope, which only retries on
+    ``navigation-goal-in-collision``, never tried its next base pose."""
     await park_arms()
     checked = check_navigating_collisions(location)
-    await perform_ignoring(an.action(type="going", target=checked), NavigationLowLevelFailure)
+    goal: Pose = to_map(checked.reference())
+
+    @retry_scope(
+        NavigationLowLevelFailure,
+        None,
+        CountedRetries(NAVIGATION_RETRIES, "navigation"),
+        rethrow=lambda failure: NavigationGoalInCollision(
+            f"did not get to {checked.short()}: {failure}"
+        ),
+    )
+    async def go() -> None:
+        try:
+            await perform(an.action(type="going", target=checked))
+        except NavigationLowLevelFailure as failure:
+            if not _close_enough(goal):
+                raise
+            log.info("the base stopped short but close enough to %r: %s", goal, failure)
+
+    await go()
+
+
+#: How often ``go-without-collisions`` drives again after the base stopped short.
+NAVIGATION_RETRIES = 1
+#: How near (m, rad) a base that stopped short must be to its goal to count as there.
+NAVIGATION_TOLERANCE = (0.05, 0.1)
+
+
+def _close_enough(goal: Pose) -> bool:
+    robot = current_environment().world.robot_pose()
+    d, angle = NAVIGATION_TOLERANCE
+    return robot.distance_to(goal) <= d and abs(_wrap(robot.yaw - goal.yaw)) <= angle
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 @rule("action", "navigating")
@@ -206,6 +251,7 @@ async def search_for_object(
         spot = spots.current.reference()
         view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
         await perform(an.action(type="navigating", location=view))
+        await arms_out_of_view()
         await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
         # v0.8.1's torso retry: a taller object in front may hide the one sought from the
@@ -226,6 +272,18 @@ async def search_for_object(
 
     result: ObjectDesignator = await translating_designator_errors(look_there, nowhere)
     return result
+
+
+async def arms_out_of_view() -> None:
+    """Before looking for an object: both arms to ``park`` (at the sides) if they hold
+    nothing. Deliberate difference from CRAM, which looked with the arms in ``carry``:
+    from the counter the palm in ``carry`` hides objects in the drawer and low on the
+    counter (the spoon's visibility was 0.33 in ``carry`` and 1.0 in ``park`` from the
+    same base pose)."""
+    world = current_environment().world
+    if any(world.object_in_hand(arm) for arm in knowledge.ARMS):
+        return
+    await park_arms("park")
 
 
 async def _look_from_higher(spot: Pose) -> None:
@@ -302,6 +360,7 @@ async def fetch(
             await pick()
 
         await from_here()
+        await back_off()
         await park_arms()
         return object_designator.current()
 
@@ -453,6 +512,7 @@ async def deliver(
     # CRAM: designator-error -> object-undeliverable (also one raised while advancing a
     # target that has no solution at all, e.g. an empty costmap)
     await translating_designator_errors(attempt, undeliverable)
+    await back_off()
 
 
 #: The failures after which ``deliver`` goes to the next base pose.
@@ -463,6 +523,31 @@ DELIVER_RELOCATION_FAILURES = (
 )
 #: The failures after which ``deliver`` tries the next target from where it stands.
 DELIVER_TARGET_FAILURES = (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable)
+
+
+#: How far (m) the base backs off from a counter before the arms are parked.
+BACK_OFF = 0.25
+
+
+@cpl.plan(name="back-off")
+async def back_off(distance: float = BACK_OFF) -> None:
+    """Retreat before parking the arms next to a counter: drive the base ``distance``
+    straight back if the belief's probe says the robot (with what it holds) stands free
+    there; the going's failures are ignored (logged: the arms are parked wherever the
+    base stopped). Deliberate addition: CRAM parked (``carry``) right where it had picked
+    or placed, and the park swept the arm and the held object through the neighbours on
+    the counter (the cereal box toppled off the sink counter, a delivered cup off the
+    island)."""
+    world = current_environment().world
+    goal = to_map(Pose((-distance, 0.0, 0.0), frame="base_footprint"))
+    probe = world.probe_base_pose(goal)
+    if not probe.ok:
+        log.info("no backing off: %s", probe.failure)
+        return
+    try:
+        await perform(an.action(type="going", target=a.location(pose=goal)))
+    except NavigationLowLevelFailure as failure:
+        log.info("backing off stopped short: %s", failure)
 
 
 def _held_type(obj: ObjectDesignator) -> str:

@@ -29,6 +29,7 @@ probes them in order.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -39,6 +40,7 @@ import cpl
 from executive import (
     Designator,
     DesignatorError,
+    GripperClosedCompletely,
     GripperLowLevelFailure,
     LocationDesignator,
     ManipulationLowLevelFailure,
@@ -55,9 +57,19 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
-from ._common import perform_ignoring, to_base, tool_frame, wrist_link
+from ._common import object_label, perform_ignoring, to_base, tool_frame, wrist_link
 
-__all__ = ["pick_up", "place", "placing_waypoints", "release_held"]
+_log = logging.getLogger(__name__)
+
+__all__ = [
+    "object_lost",
+    "pick_up",
+    "place",
+    "placing_waypoints",
+    "release_held",
+    "retreat",
+    "verify_grasp",
+]
 
 
 def _sides(arm: str, poses: Sequence[Pose]) -> dict[str, tuple[Pose, ...]]:
@@ -87,18 +99,138 @@ async def pick_up(
 
     1. in ``par``: ``setting-gripper`` to the opening, and ``reaching`` (its manipulation
        failure propagates); 2. ``grasping`` (failures ignored); 3. ``gripping`` (gripper
-       failures propagate after its own regrip); 4. ``ObjectAttached`` (to the wrist link);
-       5. ``lifting`` (failures ignored). Evaporation before step 4 leaves nothing attached.
-    Returns the object designator."""
+       failures propagate after its own regrip); the grasp is verified
+       (:func:`verify_grasp`); a failed grip first backs out (:func:`retreat`);
+       4. ``ObjectAttached`` (to the wrist link); 5. ``lifting`` (manipulation failures
+       ignored, but not a gripper failure: the object fell out);
+       the grasp is verified again. Evaporation before step 4 leaves nothing attached.
+    Returns the object designator.
+
+    Deliberate difference from CRAM: CRAM's ``lift`` ignored every manipulation failure,
+    and a ``gripper-closed-completely`` while lifting (the object fell out) with it, so
+    the belief kept the object in the hand and the plan went on to "place" nothing. Here
+    a lost object raises :class:`~executive.GripperClosedCompletely` from
+    :func:`object_lost`, which first tells the world model with ``ObjectDetached``, so
+    the fetch's regrasp scope looks for it again."""
     await cpl.par(
         cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=opening))),
         cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
     )
     await perform_ignoring(_arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure)
-    await perform(an.action(type="gripping", gripper=arm, effort=effort))
+
+    async def grip() -> None:
+        await perform(an.action(type="gripping", gripper=arm, effort=effort))
+        verify_grasp(object_designator, arm, "gripping", attached=False)
+
+    async def back_out(failure: BaseException) -> None:
+        await retreat(arm, reach_poses, opening)
+        raise failure
+
+    await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
     emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
-    await perform_ignoring(_arm_action("lifting", arm, lift_poses), ManipulationLowLevelFailure)
+
+    async def lift() -> None:
+        await perform(_arm_action("lifting", arm, lift_poses))
+
+    async def fell_out(failure: BaseException) -> None:
+        object_lost(object_designator, arm, "lifting", failure)
+
+    await cpl.with_failure_handling(
+        lift,
+        [
+            (GripperLowLevelFailure, fell_out),
+            (ManipulationLowLevelFailure, lambda _f: cpl.return_(None)),
+        ],
+    )
+    verify_grasp(object_designator, arm, "lifting")
     return object_designator
+
+
+@cpl.plan(name="retreat")
+async def retreat(arm: str, reach_poses: Sequence[Pose], opening: float) -> None:
+    """After a failed grip, back out the way the hand came: open the gripper to the
+    pick's ``opening`` and move the tool back through the reach waypoints in reverse
+    (failures of both ignored: it is a best effort before the caller's own recovery).
+    Deliberate addition: CRAM's regrasp parked the arms straight from the grasp pose, and
+    a park from there sweeps the hand through the object and its neighbours."""
+    await perform_ignoring(
+        an.action(type="setting-gripper", gripper=arm, position=opening), GripperLowLevelFailure
+    )
+    await perform_ignoring(
+        _arm_action("retracting", arm, tuple(reversed(reach_poses))), ManipulationLowLevelFailure
+    )
+
+
+#: The gripper openings (m) at which the fingers hold an object of each type: measured by
+#: closing the gripper at every grasp of the type in projection (a test re-measures them),
+#: with a margin of about 5 mm. An opening outside the range after gripping means the
+#: fingers closed on something else (the counter, a neighbour, the object's corner), or
+#: on nothing; after lifting, that the object fell out.
+GRIP_WIDTHS: dict[str, tuple[float, float]] = {
+    "cup": (0.07, 0.1),
+    "bowl": (0.012, 0.03),
+    "milk": (0.05, 0.1),
+    "breakfast-cereal": (0.062, 0.08),
+    "cereal": (0.062, 0.08),
+    "spoon": (0.022, 0.037),
+}
+#: For a type without a :data:`GRIP_WIDTHS` entry: any opening above this holds it.
+MIN_HELD_OPENING = 0.004
+
+
+def verify_grasp(object_designator: Any, arm: str, after: str, *, attached: bool = True) -> None:
+    """Check that ``arm`` holds the object, from the gripper opening the world model
+    reports (the robot's finger joints) against the type's :data:`GRIP_WIDTHS`. Outside
+    them the object is not (or no longer) held: :func:`object_lost` (``attached``: whether
+    ``ObjectAttached`` was emitted already; if not, the failure is only raised, nothing is
+    detached). A world model that does not know the opening (None) cannot tell; then
+    nothing is checked (logged). Deliberate addition: CRAM trusted a grip that did not
+    close completely."""
+    measured = current_environment().world.gripper_opening(arm)
+    if measured is None:
+        _log.debug("grasp after %s not verified: the world model has no gripper opening", after)
+        return
+    opening = float(measured)
+    otype = object_designator_type(object_designator)
+    low, high = GRIP_WIDTHS.get(otype, (MIN_HELD_OPENING, math.inf))
+    if low <= opening <= high:
+        return
+    what = "closed on nothing" if opening < MIN_HELD_OPENING else "does not hold the " + otype
+    failure = GripperClosedCompletely(
+        f"after {after} the {arm} gripper {what} (opening {opening:.3f} m,"
+        f" a {otype} is held at {low:.3f}-{high:.3f} m)",
+        action=after,
+        arm=arm,
+    )
+    if not attached:
+        raise failure
+    object_lost(object_designator, arm, after, failure)
+
+
+def object_designator_type(object_designator: Any) -> str:
+    """The type of the object an object designator (or its newest member) names."""
+    obj = (
+        object_designator.current()
+        if isinstance(object_designator, ObjectDesignator)
+        else object_designator
+    )
+    otype = obj.get("type") if hasattr(obj, "get") else None
+    if isinstance(otype, str):
+        return otype
+    return current_environment().world.object_type(object_name(obj))
+
+
+def object_lost(object_designator: Any, arm: str, during: str, failure: BaseException) -> None:
+    """The object is no longer in ``arm``: tell the world model (``ObjectDetached``: the
+    belief lets it fall where the hand is, to be perceived again) and raise
+    :class:`~executive.GripperClosedCompletely` (from ``failure``)."""
+    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    raise GripperClosedCompletely(
+        f"{object_name(object_designator)} was lost from the {arm} gripper while {during}",
+        action=during,
+        arm=arm,
+        object=object_label(object_designator),
+    ) from failure
 
 
 def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:

@@ -13,7 +13,8 @@ from typing import Any
 
 import pybullet as pb
 
-from executive import Designator, MotionCommand, Pose
+from executive import Designator, MotionCommand, Pose, an
+from executive.events import ObjectPerceived, emit
 from executive.failures import (
     GripperClosedCompletely,
     ManipulationPoseUnreachable,
@@ -223,12 +224,19 @@ class RealPtuPM(RealProcessModule):
             raise PtuGoalNotReached("the head stopped on the way", target=command.arguments)
 
 
+#: The visible fraction from which the real perception also reports an object it was not
+#: asked for (see :meth:`RealPerceptionPM._neighbours`): a partly hidden neighbour still
+#: matters to collision checks.
+NEIGHBOUR_VISIBILITY = 0.5
+
+
 class RealPerceptionPM(RealProcessModule):
     """``detecting``: after :data:`DETECTION_TIME`, the true world's visible matches
     (:meth:`World.detect`), each missed at ``miss_rate``, the first one reported with a
     noisy pose as ``(type T) (name N) (pose <map pose>) (transform <base_footprint -> N>)``
     plus the input's other properties, equated to the input and announced with
-    :class:`executive.events.ObjectPerceived`. Nothing seen, or a perception fault, raises
+    :class:`executive.events.ObjectPerceived`; then every other object in view is
+    announced too (:meth:`_neighbours`). Nothing seen, or a perception fault, raises
     :class:`executive.PerceptionObjectNotFound`."""
 
     motion_types = frozenset({"detecting"})
@@ -257,20 +265,46 @@ class RealPerceptionPM(RealProcessModule):
                 object=wanted,
             )
         found = seen[0]
-        pos_std, yaw_std = body.faults.detection_noise
-        noise = body.noise_rng.normal(0.0, 1.0, 3) * (pos_std, pos_std, yaw_std)
-        true_pose = found.map_pose
+        map_pose = self._noisy(found.map_pose)
+        base = self.world.robot_pose().to_transform("base_footprint")
+        in_base = base.inverse() * map_pose
+        perceived = perceived_designator(
+            motion, wanted, found.type, found.name, map_pose, in_base.to_transform(found.name)
+        )
+        self._neighbours(found.name)
+        return perceived
+
+    def _noisy(self, true_pose: Pose) -> Pose:
+        pos_std, yaw_std = self.body.faults.detection_noise
+        noise = self.body.noise_rng.normal(0.0, 1.0, 3) * (pos_std, pos_std, yaw_std)
         turn = Pose.from_xyz_yaw(0.0, 0.0, 0.0, float(noise[2])).as_rotation()
         x, y, z = true_pose.position
-        map_pose = Pose(
+        return Pose(
             (x + float(noise[0]), y + float(noise[1]), z),
             (turn * true_pose.as_rotation()).as_quat(),
         )
-        base = self.world.robot_pose().to_transform("base_footprint")
-        in_base = base.inverse() * map_pose
-        return perceived_designator(
-            motion, wanted, found.type, found.name, map_pose, in_base.to_transform(found.name)
-        )
+
+    def _neighbours(self, found: str) -> None:
+        """Report every other object the camera sees (visible fraction at least
+        :data:`NEIGHBOUR_VISIBILITY`, each missed at ``miss_rate``) to the belief with a
+        noisy pose (``ObjectPerceived``), so that the plans' collision checks know the
+        neighbours of what they reach for, and visibility costmaps its occluders. Objects
+        in the robot's hand are not reported. Deliberate difference from the first
+        version, which reported only the object asked for (the belief never knew the
+        neighbours the arm then knocked over): a real detector reports everything it
+        recognises in its view."""
+        world, body = self.world, self.body
+        links = _robot_links(world)
+        held = {n for n, link in world.attachments.items() if link in links}
+        for name, otype in sorted(world.objects.items()):
+            if name == found or name in held:
+                continue
+            if world.visibility(name) < NEIGHBOUR_VISIBILITY:
+                continue
+            if body.miss_rng.random() < body.faults.miss_rate:
+                continue
+            pose = self._noisy(world.object_pose(name))
+            emit(ObjectPerceived(an.object(type=otype, name=name, pose=pose)))
 
 
 class RealGrippersPM(GripperMotions, RealProcessModule):

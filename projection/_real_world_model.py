@@ -71,6 +71,11 @@ class RealWorldModel:
     def link_pose(self, link: str, frame: str = "map") -> Pose:
         return self.belief.link_pose(link, frame)
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """The finger opening of ``arm``: the belief robot mirrors the true joint states
+        (as a real robot's belief has them from its joint-state topic)."""
+        return self.belief.gripper_opening(arm)
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         return self.belief.link_aabb(link)
 

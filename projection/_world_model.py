@@ -117,6 +117,11 @@ class ProjectedWorldModel:
         """A robot or kitchen link's pose; unknown links raise LookupError."""
         return self.world.link_pose(link, frame)
 
+    def gripper_opening(self, arm: str) -> float | None:
+        """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
+        finger joints; a real robot's belief has them from its joint states)."""
+        return self.world.gripper_opening(_arm(arm))
+
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """A robot or kitchen link's axis-aligned bounding box in map, ``(min, max)``;
         unknown links raise LookupError."""

@@ -8,8 +8,16 @@ import pytest
 from aiocram.campaign import INVARIANTS, run_campaign, summarise
 
 
-def _run(seed, rate, proj, delivered, distance, broken=()):
-    objects = {f"o{i}": {"success": i < delivered, "retries": {"relocations": i}} for i in range(5)}
+def _run(seed, rate, proj, delivered, distance, broken=(), phantoms=0):
+    objects = {
+        f"o{i}": {
+            "claimed": i < delivered + phantoms,
+            "delivered": i < delivered,
+            "where": "island" if i < delivered else "floor",
+            "retries": {"relocations": i},
+        }
+        for i in range(5)
+    }
     return {
         "seed": seed,
         "fault_rate": rate,
@@ -32,6 +40,8 @@ def test_summary_per_mode_and_rate():
     ]
     rows = {(r["projection"], r["fault_rate"]): r for r in summarise(results)["rows"]}
     assert rows[(True, 0.0)]["success_rate"] == pytest.approx(9 / 10)
+    assert rows[(True, 0.0)]["delivered_rate"] == pytest.approx(9 / 10)
+    assert rows[(True, 0.0)]["phantoms"] == 0
     assert rows[(True, 0.0)]["mean_distance_m"] == pytest.approx(11.0)
     assert rows[(True, 0.0)]["retries"] == {"relocations": 20}
     assert rows[(True, 0.1)]["invariant_violations"] == [
@@ -82,8 +92,49 @@ def test_campaign_section_of_the_benchmark_report(tmp_path):
     )
     (tmp_path / "campaign.json").write_text(json.dumps({"summary": summary, "runs": []}))
     text = _campaign_markdown(tmp_path)
-    assert "| yes | 0.00 | 1 | 100.0 % | 10.00 |" in text
-    assert "| no | 0.10 | 1 | 80.0 % | 12.00 |" in text
+    assert "| yes | 0.00 | 1 | 100.0 % | 100.0 % | 0 | 10.00 |" in text
+    assert "| no | 0.10 | 1 | 80.0 % | 80.0 % | 0 | 12.00 |" in text
     assert "arms_parked 1" in text
     with pytest.raises(ValueError, match="no campaign summary"):
         _campaign_markdown(tmp_path / "missing")
+
+
+def test_phantoms_are_claimed_objects_not_delivered():
+    (row,) = summarise([_run(1, 0.1, True, 2, 10.0, phantoms=2)])["rows"]
+    assert row["delivered_rate"] == pytest.approx(2 / 5)
+    assert row["claimed_rate"] == pytest.approx(4 / 5)
+    assert row["phantoms"] == 2
+    assert row["not_delivered_where"] == {"floor": 3}
+
+
+def test_summary_table_fits_80_columns():
+    from rich.console import Console
+
+    from aiocram.campaign import summary_table
+
+    rows = [
+        _run(s, r, p, 3, 12.345, phantoms=1)
+        for s in (1, 2)
+        for r in (0.0, 0.05, 0.1, 0.2)
+        for p in (True, False)
+    ]
+    console = Console(width=80, record=True, color_system=None)
+    console.print(summary_table(summarise(rows)))
+    lines = console.export_text().splitlines()
+    assert max(len(line) for line in lines) <= 80
+    assert not any("…" in line for line in lines)  # nothing truncated
+    body = [line for line in lines if line.strip().startswith(("yes", "no"))]
+    assert len(body) == 8  # one line per row: nothing wrapped
+    assert body[0].split() == [
+        "no",
+        "0.00",
+        "2",
+        "60.0",
+        "%",
+        "80.0",
+        "%",
+        "2",
+        "12.35",
+        "100",
+        "0",
+    ]

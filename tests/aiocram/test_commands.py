@@ -30,7 +30,7 @@ def test_demo_writes_log_pictures_and_summary(tmp_path, capsys):
     code = main(["demo", "--objects", "bowl", "--seed", "1", "--no-live", "--out", str(out)])
     text = capsys.readouterr().out
     assert code in (0, 1)  # 1 = an invariant violated: reported, not a crash
-    assert "bowl" in text and "objects placed" in text
+    assert "bowl" in text and "objects delivered (true world" in text
     for name in ("log.jsonl", "final_scene.png", "robot_view.png"):
         assert (out / name).stat().st_size > 0, name
     assert (out / "plans.log").exists()  # empty when nothing was retried
@@ -81,7 +81,7 @@ def test_tiny_campaign(tmp_path):
         (False, 0.0),
         (False, 0.2),
     }
-    assert all(set(r["invariants"]) >= {"no_task_alive", "no_object_lost"} for r in runs)
+    assert all(set(r["invariants"]) >= {"no_task_leaked", "no_object_lost"} for r in runs)
     assert (out / "success_rate.png").stat().st_size > 0
     assert (out / "distance.png").stat().st_size > 0
     assert code == (1 if any(r["invariant_violations"] for r in data["summary"]["rows"]) else 0)

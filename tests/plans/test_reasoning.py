@@ -212,9 +212,13 @@ def test_the_real_run_uses_the_cheapest_imagined_base_poses():
         runs[1], "fetching", "picking-up"
     )
     assert nav_pose_before(real_run, "delivering", "placing") == place_poses[1]
-    # the real robot drove there (fake navigation: the last two drives)
+    # the real robot drove there (fake navigation: the last drives, each followed by a
+    # back-off of the base before the arms are parked)
     drives = [m.reference().arguments["pose"] for m in real.calls("navigation", "going")]
-    assert drives[-2:] == [nav_pose_before(runs[1], "fetching", "picking-up"), place_poses[1]]
+    assert drives[-4] == nav_pose_before(runs[1], "fetching", "picking-up")
+    assert drives[-2] == place_poses[1]
+    backs = [round(d.distance_to(g), 3) for d, g in zip(drives[-4::2], drives[-3::2])]
+    assert backs == [0.25, 0.25]
     # injection: the fetching got the location designator and the pick-up action
     (_, fetching), *_ = performed(real_run, "fetching")
     assert fetching.get("robot-location") is chosen.fetch_robot_location

@@ -301,15 +301,16 @@ def test_rate_zero_never_fails_and_the_same_seed_repeats_the_faults() -> None:
 
 
 # ------------------------------------------------------------------------------ picking
-async def _pick(true: World, belief: World, arm: str = "left") -> None:
-    """Go to the sink, detect the cup, choose a grasp the belief's probe accepts, and pick
-    it up as CRAM's pick-up does (open, reach, grasp, grip, attach, lift)."""
+async def _pick(true: World, belief: World) -> str:
+    """Go to the sink, detect the cup, choose an arm and grasp the belief's probe accepts
+    (the belief knows the cup's neighbours, as perceived), and pick it up as CRAM's
+    pick-up does (open, reach, grasp, grip, attach, lift). Returns the arm."""
     await go(SINK_NAV)
     cup = await look_and_detect()
     model = executive.current_environment().world
     assert isinstance(model, RealWorldModel)
     transform = cup.get("transform")
-    for grasp in knowledge.grasps("cup"):
+    for arm, grasp in ((arm, g) for arm in ("left", "right") for g in knowledge.grasps("cup")):
         poses = knowledge.grasp_poses("cup", grasp, transform)
         if model.probe_arm_trajectory(arm, poses, allowed_contacts=[CUP]).ok:
             break
@@ -323,21 +324,24 @@ async def _pick(true: World, belief: World, arm: str = "left") -> None:
     emit(ObjectAttached(CUP, arm, f"{arm[0]}_wrist_roll_link"))
     for pose in poses[3:]:
         await perform(a.motion(type="moving-tcp", **{f"{arm}_pose": pose}))
+    return arm
 
 
 def test_a_pick_attaches_in_both_worlds(pair: tuple[World, World]) -> None:
     true, belief = pair
     z0 = true.object_pose(CUP).position[2]
+    arms = []
 
     async def main() -> None:
         async with real(true, belief, FaultProfile()):  # default detection noise
-            await _pick(true, belief)
+            arms.append(await _pick(true, belief))
             await cpl.sleep(2.0)
             await perform(a.motion(type="moving-torso", joint_angle=true.torso_height))
 
     run(main)
-    assert true.attachments.get(CUP) == "l_wrist_roll_link"
-    assert belief.attachments.get(CUP) == "l_wrist_roll_link"
+    wrist = f"{arms[0][0]}_wrist_roll_link"
+    assert true.attachments.get(CUP) == wrist
+    assert belief.attachments.get(CUP) == wrist
     assert true.object_pose(CUP).position[2] > z0 + 0.05  # lifted in the true world
     assert math.dist(true.object_pose(CUP).position, belief.object_pose(CUP).position) < 0.05
 
