@@ -304,3 +304,18 @@ def test_a_back_off_that_stops_short_is_ignored(cup_world):
     robot = make_robot(cup_world, navigation={1: NavigationGoalNotReached})
     robot.run(back_off)  # logged, not raised: the arms are parked where the base is
     assert len(robot.calls("navigation")) == 1
+
+
+def test_sealing_acts_from_where_the_base_stopped_short(cup_world):
+    """Next to an open drawer the base often stops a little short; the drawer is closed
+    from there (the checked trajectory decides), not given up after ten relocations."""
+    from conftest import DRAWER
+
+    from executive import NavigationGoalNotReached, a
+    from executive.events import ContainerClosed
+
+    robot = make_robot(cup_world, navigation=dict.fromkeys((1, 2), NavigationGoalNotReached))
+    location = a.location(("side", "front"), in_=DRAWER)
+    robot.run(perform, an.action(type="sealing", location=location, distance=0.3))
+    assert len(robot.calls("navigation")) == 2  # drove, drove again, stopped short: closed
+    assert any(isinstance(e, ContainerClosed) for e in cup_world.events)
