@@ -47,7 +47,7 @@ from executive.events import RobotStateChanged
 
 from ._common import CountedRetries, ignoring, retry_ledger
 from .atomic import park_arms
-from .imagining import imagine_best
+from .imagining import imagine_best, imagining
 from .pick_place import release_held
 
 __all__ = [
@@ -374,7 +374,7 @@ async def table_setting(
     async def transport_next(object_type: str) -> str:
         """Transport ``object_type``; in imagination only the action (its failure is the
         imagined outcome), for real with the outcome's bookkeeping. Returns the type."""
-        if current_environment().projecting:
+        if imagining() is not None:
             await perform(
                 an.action(
                     type="transporting",

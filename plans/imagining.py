@@ -24,6 +24,7 @@ Example (the demo's order of transports)::
 
 from __future__ import annotations
 
+import contextvars
 import logging
 import math
 from collections.abc import Awaitable, Callable, Mapping
@@ -36,11 +37,22 @@ from executive.events import RobotStateChanged
 
 from ._common import retry_ledger
 
-__all__ = ["Imagined", "by_success_then_time", "imagine_best"]
+__all__ = ["Imagined", "by_success_then_time", "imagine_best", "imagining"]
 
 log = logging.getLogger("plans.imagining")
 
 T = TypeVar("T")
+
+#: The name of the alternative being imagined in this context (``None``: not imagining).
+_IMAGINING: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "plans_imagining", default=None
+)
+
+
+def imagining() -> str | None:
+    """The name of the :func:`imagine_best` alternative being imagined here, else ``None``
+    (an alternative may skip the bookkeeping of a real run while it is only imagined)."""
+    return _IMAGINING.get()
 
 
 @dataclass(frozen=True)
@@ -127,7 +139,11 @@ async def _imagine(name: str, fn: Callable[[], Awaitable[Any]], dream: Any) -> I
         me = cpl.current_task()
         assert me is not None
         box.append(me)
-        return await fn()
+        token = _IMAGINING.set(name)
+        try:
+            return await fn()
+        finally:
+            _IMAGINING.reset(token)
 
     outcome, value = "succeeded", None
     with retry_ledger() as ledger:
