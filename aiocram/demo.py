@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import cpl
+from aiocram.foresight import foresight_records, print_foresight
 from aiocram.truth import TruthObserver, TruthReport
 
 __all__ = ["DEFAULT_OBJECTS", "DemoConfig", "DemoReport", "add_parser", "run_demo", "run_demo_once"]
@@ -66,6 +67,7 @@ class DemoReport:
     real_sim_s: dict[str, float] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
     truth: TruthReport | None = None
+    foresight: list[dict[str, Any]] = field(default_factory=list)  # aiocram.foresight
 
     @property
     def delivered(self) -> int:
@@ -96,6 +98,7 @@ class DemoReport:
             "objects": objects,
             "distance_driven": sum(o.distance for o in self.outcomes.values()),
             "real_time_s": self.sim_time_s,
+            "foresight": self.foresight,
             "invariants": dict(self.invariants),
             "violations": dict(self.violations),
             "cleanup_intervened": [] if self.truth is None else list(self.truth.cleanup_intervened),
@@ -290,6 +293,7 @@ def run_demo(config: DemoConfig, console: Any = None) -> DemoReport:
             real_sim,
             files,
             truth,
+            foresight_records(root),
         )
     finally:
         restore_logging()
@@ -414,6 +418,7 @@ def _print_report(report: DemoReport, console: Any) -> None:
             f"{report.imagined_wall_s.get(name, 0.0):.2f}",
         )
     console.print(table)
+    print_foresight(report.foresight, console)
     console.print(
         f"{report.delivered}/{len(report.outcomes)} objects delivered (true world; the plan"
         f" claimed {report.claimed}); simulated "

@@ -155,3 +155,37 @@ def test_measure_fidelity_on_a_finished_task_tree():
     )
     disagreeing = measure_fidelity(chosen, real_run, None, ValueError("boom"))
     assert disagreeing.real == "ValueError" and not disagreeing.agrees
+
+
+def test_the_demo_and_campaign_read_the_fidelity_from_the_tree():
+    """aiocram.foresight: the per-transport rows and the campaign's fidelity aggregate,
+    on one transport that agrees and one whose real robot failed."""
+    from conftest import make_robot
+
+    from aiocram.foresight import fidelity_lines, fidelity_summary, foresight_records
+    from executive import ManipulationLowLevelFailure, ObjectUnfetchable
+
+    _world, real, _dream, imagination = setup()
+    root, _ = run_real(real, imagination, lambda: perform(transporting()))
+    (good,) = foresight_records(root)
+    assert good["object"] == "cup" and len(good["imagined"]) == 3
+    assert good["chosen"] in RUN_NAMES and good["fidelity"]["agrees"] is True
+
+    world, _real, _dream, imagination = setup()
+    failing = make_robot(world, arms={n: ManipulationLowLevelFailure for n in range(1, 10_000)})
+    box: list[cpl.Task] = []
+
+    async def body() -> Any:
+        box.append(cpl.current_task())
+        return await perform(transporting())
+
+    with pytest.raises(ObjectUnfetchable):
+        run_real(failing, imagination, body)
+    (bad,) = foresight_records(box[0])
+    assert bad["fidelity"]["real"] == "ObjectUnfetchable" and not bad["fidelity"]["agrees"]
+    summary = fidelity_summary([{"foresight": [good]}, {"foresight": [bad]}])
+    assert summary["transports"] == 2 and summary["agreed"] == 1
+    assert summary["fidelity"] == pytest.approx(0.5)
+    (line,) = fidelity_lines([{"fault_rate": 0.1, "fidelity": summary}])
+    assert "1/2 = 50.0 % predicted" in line
+    assert fidelity_lines([{"fault_rate": 0.0, "fidelity": fidelity_summary([])}]) == []
