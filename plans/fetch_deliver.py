@@ -667,14 +667,12 @@ async def transport(
             if explore is not None:  # an imagined run: draw this run's own alternative
                 fetch_arm = explore.arm(arm)
                 spot = a.location(of_item_object=found.current().get("name")).reference()
-                here = current_environment().world.robot_pose().position[:2]
                 fetch_location = explore.region(
                     "pick base",
                     a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=arm),
                     spot.position[:2],
-                    near=here,
                 )
-                to = explore.region("placing target", target, near=spot.position[:2])
+                to = explore.region("placing target", target)
             fetched: ObjectDesignator = await perform(
                 an.action(
                     type="fetching",

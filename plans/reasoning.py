@@ -148,10 +148,9 @@ class Exploration:
       cut by bearing around a centre (the object for a pick base pose, the pool's centroid
       for placing targets) into ``runs`` contiguous regions (:func:`partition_by_bearing`):
       run ``i`` gets region ``i`` as an ``(among ...)`` location, whose solutions are that
-      region's poses, nearest first to a point the plan names (the robot for a pick base
-      pose, the object for a placing target), else in draw order (the plan's relocation
-      retries stay in the region). A pool too small for a region (e.g. a fixed pose
-      target) leaves later runs on the plan's own designator.
+      region's poses in draw order (the plan's relocation retries stay in the region). A
+      pool too small for a region (e.g. a fixed pose target) leaves later runs on the
+      plan's own designator.
     * **arm**: ``ARMS[(run - 1) % 3]`` = unconstrained / left / right, unless the caller
       fixed the arm.
     * the grasp follows from arm and base pose (the picking checks choose it).
@@ -174,16 +173,10 @@ class Exploration:
         return arm
 
     def region(
-        self,
-        key: str,
-        designator: LocationDesignator,
-        around: Sequence[float] | None = None,
-        near: Sequence[float] | None = None,
+        self, key: str, designator: LocationDesignator, around: Sequence[float] | None = None
     ) -> LocationDesignator:
         """This run's region of ``designator``'s solutions (see the class docstring);
-        ``around`` = the (x, y) centre of the bearings, default the pool's centroid;
-        ``near``: an (x, y) point; the region's poses are then tried nearest first (the
-        shortest leg inside the region), else in draw order."""
+        ``around`` = the (x, y) centre of the bearings, default the pool's centroid."""
         pool = self.pools.get(key)
         if pool is None:
             try:
@@ -202,8 +195,6 @@ class Exploration:
             )
         regions = partition_by_bearing(pool, around or (0.0, 0.0), self.runs)
         mine = regions[self.run - 1]
-        if near is not None:
-            mine = tuple(sorted(mine, key=lambda p: math.dist(p.position[:2], near[:2])))
         if not mine:
             self.explored[key] = "plan's own"
             return designator
