@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aiocram.foresight import fidelity_lines, fidelity_summary
 from aiocram.truth import INVARIANTS
 
 __all__ = [
@@ -422,6 +423,7 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 "mean_sim_time_s": statistics.fmean(sim_times) if sim_times else 0.0,
                 "mean_wall_time_s": statistics.fmean(r.get("wall_time_s", 0.0) for r in runs),
                 "runs_violating": len({v["seed"] for v in violations}),
+                "fidelity": fidelity_summary(runs),  # issue 14: projection fidelity
                 "invariant_violations": violations,
             }
         )
@@ -507,6 +509,8 @@ def _print_summary(summary: dict[str, Any]) -> None:
 
     console = Console()
     console.print(summary_table(summary))
+    for line in fidelity_lines(summary["rows"]):
+        console.print(line)
     kinds: dict[str, int] = defaultdict(int)
     for r in summary["rows"]:
         for v in r["invariant_violations"]:

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import cpl
+from aiocram.foresight import foresight_records, print_foresight
 from aiocram.truth import TruthObserver, TruthReport
 
 if TYPE_CHECKING:  # projection (PyBullet) is imported when a demo runs, not with this module
@@ -118,6 +119,7 @@ class DemoReport:
     cleanup_failures: int = 0
     #: What the true world says after the run (``None`` if it was never measured).
     truth: TruthReport | None = None
+    foresight: list[dict[str, Any]] = field(default_factory=list)  # aiocram.foresight
 
     @property
     def delivered(self) -> int:
@@ -148,6 +150,7 @@ class DemoReport:
             "objects": objects,
             "distance_driven": sum(o.distance for o in self.outcomes.values()),
             "real_time_s": self.sim_time_s,
+            "foresight": self.foresight,
             "invariants": dict(self.invariants),
             "violations": dict(self.violations),
             "cleanup_intervened": (
@@ -377,6 +380,7 @@ def run_demo(
             root=root,
             cleanup_failures=len(cpl.cleanup_failures(root)),
             truth=truth,
+            foresight=foresight_records(root),
         )
     finally:
         restore_logging()
@@ -534,6 +538,7 @@ def _print_report(report: DemoReport, console: Any) -> None:
             f"{report.imagined_wall_s.get(name, 0.0):.2f}",
         )
     console.print(table)
+    print_foresight(report.foresight, console)
     kinds = [(name, _retries_text(o.retries)) for name, o in report.outcomes.items()]
     kinds = [(name, text.split(": ", 1)[1]) for name, text in kinds if text != "-"]
     if kinds:

@@ -62,7 +62,7 @@ STATUS_STYLES: Mapping[Status, StatusStyle] = MappingProxyType(
 )
 """The one table of status glyphs and colours."""
 
-ANNOTATIONS_SHOWN: tuple[str, ...] = ("designator",)  # recorded: also "resolved"
+ANNOTATIONS_SHOWN: tuple[str, ...] = ("designator", "chosen", "why")  # recorded: also "resolved"
 """Annotation keys drawn on a task's line (others stay in the snapshot only)."""
 
 _PLAIN_KINDS = frozenset({"plan", "task"})

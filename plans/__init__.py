@@ -13,6 +13,7 @@ from .checks import (
     check_placing_pose_stability,
 )
 from .demo import ObjectOutcome, spawn_scene, table_setting
+from .imagining import Imagined, imagine_best
 from .reasoning import (
     ProjectedParameters,
     pick_best_parameters_by_distance,
@@ -21,6 +22,7 @@ from .reasoning import (
 
 __all__ = [
     "CountedRetries",
+    "Imagined",
     "ObjectOutcome",
     "PlacingPoseUnstable",
     "ProjectedParameters",
@@ -32,6 +34,7 @@ __all__ = [
     "check_placing_pose_stability",
     "environment",
     "fetch_deliver",
+    "imagine_best",
     "pick_best_parameters_by_distance",
     "pick_place",
     "retry_ledger",

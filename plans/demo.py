@@ -47,6 +47,7 @@ from executive.events import RobotStateChanged
 
 from ._common import CountedRetries, ignoring, retry_ledger
 from .atomic import park_arms
+from .imagining import imagine_best, imagining
 from .pick_place import release_held
 
 __all__ = [
@@ -341,6 +342,7 @@ async def table_setting(
     spawn: bool = True,
     before_cleanup: Callable[[], None] | None = None,
     outcomes: dict[str, ObjectOutcome] | None = None,
+    order_by_projection: bool = False,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -362,7 +364,12 @@ async def table_setting(
     once the transports are over and before the final cleanup (an observer's hook: it
     sees what the plan left behind). Returns ``{type: outcome}`` in ``objects`` order;
     ``outcomes``, if given, is filled as the run goes (a caller whose run is evaporated,
-    e.g. by Ctrl-C, still learns what was done)."""
+    e.g. by Ctrl-C, still learns what was done).
+    ``order_by_projection`` (with ``projection_reasoning``): before each transport,
+    :func:`plans.imagining.imagine_best` imagines transporting each of the next two
+    objects and the better one (imagined success, then retries, then time) goes first;
+    the subtrees ``imagine-<type>`` / ``chosen-<type>`` show the choice. Off by default
+    (it doubles the imagining; see the issue-14 note)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
@@ -408,12 +415,40 @@ async def table_setting(
                 outcome.retries = dict(Counter(outcome.retries) + ledger)
                 outcome.distance += driven[0] - start
 
+    async def transport_next(object_type: str) -> str:
+        """Transport ``object_type``; in imagination only the action (its failure is the
+        imagined outcome), for real with the outcome's bookkeeping. Returns the type."""
+        if imagining() is not None:
+            await perform(
+                an.action(
+                    type="transporting",
+                    object=an.object(type=object_type),
+                    location=fetch_location(object_type),
+                    target=place_location(object_type, bowl_placed=_bowl_placed(outcomes)),
+                    projection_reasoning=False,
+                )
+            )
+            return object_type
+        outcome = ObjectOutcome(object_type, f"{object_type}-1")
+        outcomes[object_type] = outcome
+        await transport_one(outcome, None)
+        return object_type
+
     try:
         await _initialize_or_finalize("carry")
-        for object_type in objects:
-            outcome = ObjectOutcome(object_type, f"{object_type}-1")
-            outcomes[object_type] = outcome
-            await transport_one(outcome, None)
+        remaining = list(objects)
+        while remaining:
+            if order_by_projection and len(remaining) > 1:
+                # projection chooses which of the next two goes first: an object that
+                # hides another is found (imagined success) where the hidden one is not
+                candidates = remaining[:2]
+                chosen = await imagine_best(
+                    {t: partial(transport_next, t) for t in candidates},
+                    enabled=projection_reasoning,
+                )
+            else:
+                chosen = await transport_next(remaining[0])
+            remaining.remove(chosen)
         await _transport_later(outcomes, transport_one)
         # the plan ends parked by itself (deliberate: CRAM left parking to the final
         # ``initialize-or-finalize``): the cleanup below must then find nothing to do, and
@@ -427,4 +462,4 @@ async def table_setting(
             await cpl.shielded(_finalize([f"{t}-1" for t in objects]))
         finally:
             unsubscribe()
-    return outcomes
+    return {t: outcomes[t] for t in objects if t in outcomes}

@@ -702,12 +702,23 @@ async def transport(
         )
 
         async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
+            fetch_arm, fetch_location, to = arm, given.fetch_robot_location, target
+            explore = given.exploration
+            if explore is not None:  # an imagined run: draw this run's own alternative
+                fetch_arm = explore.arm(arm)
+                spot = a.location(of_item_object=found.current().get("name")).reference()
+                fetch_location = explore.region(
+                    "pick base",
+                    a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=arm),
+                    spot.position[:2],
+                )
+                to = explore.region("placing target", target)
             fetched: ObjectDesignator = await perform(
                 an.action(
                     type="fetching",
                     object=found,
-                    arm=arm,
-                    robot_location=given.fetch_robot_location,
+                    arm=fetch_arm,
+                    robot_location=fetch_location,
                     pick_up_action=given.pick_up_action,
                 )
             )
@@ -717,7 +728,7 @@ async def transport(
                     an.action(
                         type="delivering",
                         object=fetched,
-                        target=target,
+                        target=to,
                         robot_location=given.deliver_robot_location,
                         place_action=given.place_action,
                     )
@@ -730,7 +741,10 @@ async def transport(
             return fetched if delivered else None
 
         return await with_projected_task_tree(
-            fetch_and_deliver, projection_runs, enabled=projection_reasoning
+            fetch_and_deliver,
+            projection_runs,
+            enabled=projection_reasoning,
+            subject=found.current().get("name"),
         )
     finally:
         if not accessible:

@@ -19,29 +19,41 @@ Retries granted in imagination are not tallied in the caller's :func:`retry_ledg
 from __future__ import annotations
 
 import logging
-from collections.abc import Awaitable, Callable, Sequence
-from dataclasses import dataclass
-from itertools import pairwise
-from typing import TypeVar
+import math
+import time
+from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from itertools import islice, pairwise
+from typing import Any, TypeVar
 
 import cpl
 from executive import (
     ActionDesignator,
+    Designator,
     DesignatorError,
+    Environment,
     LocationDesignator,
     Pose,
+    SceneSetup,
     a,
     current_environment,
     newest_effective,
     performed,
     previous_performed,
+    register_location_generator,
 )
 
 from ._common import retry_ledger
 
 __all__ = [
+    "MANY_RETRIES",
+    "RETRY_COST",
+    "Exploration",
     "ProjectedParameters",
+    "RunAssessment",
+    "assess_run",
     "pick_best_parameters_by_distance",
+    "pick_by_prediction",
     "projected_parameters",
     "route_cost",
     "with_projected_task_tree",
@@ -62,6 +74,307 @@ class ProjectedParameters:
     pick_up_action: ActionDesignator | None = None
     deliver_robot_location: LocationDesignator | None = None
     place_action: ActionDesignator | None = None
+    #: in an imagined run: which alternative this run explores (see :class:`Exploration`);
+    #: ``None`` in the real run and in a pass-through.
+    exploration: Exploration | None = None
+
+
+# --------------------------------------------------------------------------- exploring
+#: Samples drawn per imagined run into a shared pool (see :class:`Exploration`).
+POOL_PER_RUN = 4
+#: The arm an imagined run explores when the caller fixed none: run ``i`` (1-based) takes
+#: ``ARMS[(i - 1) % 3]`` (``None``: the plan chooses).
+ARMS: tuple[str | None, ...] = (None, "left", "right")
+
+
+def _bearing(pose: Pose, around: Sequence[float]) -> float:
+    return math.atan2(pose.position[1] - around[1], pose.position[0] - around[0])
+
+
+def _wrap(angle: float) -> float:
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+def partition_by_bearing(
+    poses: Sequence[Pose], around: Sequence[float], parts: int
+) -> list[tuple[Pose, ...]]:
+    """Cut ``poses`` into ``parts`` contiguous regions by their bearing seen from
+    ``around`` (x, y). Bearings are taken relative to the poses' circular mean, so a region
+    never straddles the far side; each region keeps the draw order of its poses. Sizes
+    differ by at most one; with fewer poses than parts the last regions are empty."""
+    if parts < 1:
+        raise ValueError(f"partition_by_bearing needs at least one part, got {parts}")
+    if not poses:
+        return [() for _ in range(parts)]
+    bearings = [_bearing(p, around) for p in poses]
+    mean = math.atan2(sum(map(math.sin, bearings)), sum(map(math.cos, bearings)))
+    order = sorted(range(len(poses)), key=lambda i: _wrap(bearings[i] - mean))
+    size, extra = divmod(len(poses), parts)
+    regions: list[tuple[Pose, ...]] = []
+    start = 0
+    for k in range(parts):
+        end = start + size + (1 if k < extra else 0)
+        members = sorted(order[start:end])  # draw order inside a region
+        regions.append(tuple(poses[i] for i in members))
+        start = end
+    return regions
+
+
+def _among_generator(d: Designator, env: Environment) -> Iterator[Pose] | None:
+    """``(among (P1 P2 ...))``: exactly those poses, in order (an imagined run's region)."""
+    del env
+    if "among" not in d:
+        return None
+    poses = d["among"]
+    if not isinstance(poses, tuple) or not all(isinstance(p, Pose) for p in poses):
+        raise DesignatorError(f"{d.short()}: (among ...) takes a tuple of executive.Pose", d)
+    return iter(poses)
+
+
+register_location_generator(_among_generator, 10, keys=("among",))
+
+
+@dataclass(eq=False)
+class Exploration:
+    """Which alternative imagined run ``run`` (1-based) of ``runs`` explores.
+
+    How the alternatives are drawn (so that ``runs=3`` compares three different choices,
+    not three draws from one distribution):
+
+    * **base-pose regions and placing targets** (:meth:`region`): the first run that asks
+      for a pool ``key`` draws ``POOL_PER_RUN * runs`` solutions of the plan's own location
+      designator (the same costmap, validated as usual, drawn with the belief world's
+      generator); the pool is kept in ``pools``, shared by all runs of one projection. It is
+      cut by bearing around a centre (the object for a pick base pose, the pool's centroid
+      for placing targets) into ``runs`` contiguous regions (:func:`partition_by_bearing`):
+      run ``i`` gets region ``i`` as an ``(among ...)`` location, whose solutions are that
+      region's poses in draw order (the plan's relocation retries stay in the region). A
+      pool too small for a region (e.g. a fixed pose target) leaves later runs on the
+      plan's own designator.
+    * **arm**: ``ARMS[(run - 1) % 3]`` = unconstrained / left / right, unless the caller
+      fixed the arm.
+    * the grasp follows from arm and base pose (the picking checks choose it).
+
+    ``explored`` records what this run was given (for the task tree and the demo)."""
+
+    run: int
+    runs: int
+    pools: dict[str, tuple[Pose, ...]] = field(default_factory=dict)  # shared by the runs
+    explored: dict[str, Any] = field(default_factory=dict)  # this run's choices
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.run <= self.runs:
+            raise ValueError(f"Exploration run must be in 1..{self.runs}, got {self.run}")
+
+    def arm(self, given: str | None) -> str | None:
+        """The arm this run explores (``given`` when the caller fixed one)."""
+        arm = given if given is not None else ARMS[(self.run - 1) % len(ARMS)]
+        self.explored["arm"] = arm or "any"
+        return arm
+
+    def region(
+        self, key: str, designator: LocationDesignator, around: Sequence[float] | None = None
+    ) -> LocationDesignator:
+        """This run's region of ``designator``'s solutions (see the class docstring);
+        ``around`` = the (x, y) centre of the bearings, default the pool's centroid."""
+        pool = self.pools.get(key)
+        if pool is None:
+            try:
+                n = POOL_PER_RUN * self.runs
+                pool = tuple(
+                    to_pose(p) for p in islice(iter(designator.solutions()), n)
+                )
+            except DesignatorError as error:
+                log.info("no pool for %s: %s", key, error)
+                pool = ()
+            self.pools[key] = pool
+        if around is None and pool:
+            around = (
+                sum(p.position[0] for p in pool) / len(pool),
+                sum(p.position[1] for p in pool) / len(pool),
+            )
+        regions = partition_by_bearing(pool, around or (0.0, 0.0), self.runs)
+        mine = regions[self.run - 1]
+        if not mine:
+            self.explored[key] = "plan's own"
+            return designator
+        bearing = math.degrees(_bearing(mine[0], around or (0.0, 0.0)))
+        self.explored[key] = f"region {self.run}/{self.runs} ({bearing:+.0f}°)"
+        region = a.location(among=mine)
+        return region
+
+
+def to_pose(value: Any) -> Pose:
+    if not isinstance(value, Pose):
+        raise DesignatorError(f"a location solution must be a Pose, got {value!r}")
+    return value
+
+
+# ------------------------------------------------------------------------- assessing
+#: Retries (all kinds, in one imagined run) above which a run counts as needing many.
+MANY_RETRIES = 3
+#: The route-cost equivalent of one retry (m + rad): what the time of a retry costs.
+RETRY_COST = 1.0
+#: A neighbour moved more than this (m) or tilted more than ``TILT`` (rad) was knocked.
+KNOCK_DISTANCE = 0.03
+TILT = 0.35
+#: Below this height (m) an object lies on the floor.
+FLOOR_Z = 0.3
+
+
+def _tilt(pose: Pose) -> float:
+    x, y, _z, _w = pose.orientation
+    return math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (x * x + y * y))))
+
+
+@dataclass(frozen=True)
+class RunAssessment:
+    """What the imagined world predicts for one run (read before it is restored).
+
+    ``failure``: the failure class name that ended the run (``None``: it succeeded);
+    ``knocked``: neighbours it moved (> ``KNOCK_DISTANCE``) or tilted (> ``TILT``);
+    ``unstable``: the transported object ends tilted or on the floor; ``retries``: the
+    retries granted in the run; ``route``: start -> pick base pose -> place base pose;
+    ``cost``: route cost + ``RETRY_COST`` per retry (``None`` without a complete route)."""
+
+    name: str
+    failure: str | None
+    knocked: tuple[str, ...]
+    unstable: bool
+    retries: int
+    route: tuple[Pose, ...]
+    cost: float | None
+    params: ProjectedParameters
+    explored: Mapping[str, Any]
+
+    @property
+    def clean(self) -> bool:
+        """Succeeded, knocked nothing, left a stable object, needed few retries."""
+        return (
+            self.failure is None
+            and not self.knocked
+            and not self.unstable
+            and self.retries <= MANY_RETRIES
+        )
+
+    def rank(self) -> tuple[Any, ...]:
+        """Smaller is better: predicted success first, then cost."""
+        return (
+            self.failure is not None,
+            bool(self.knocked),
+            self.unstable,
+            self.retries > MANY_RETRIES,
+            self.cost is None,
+            self.cost if self.cost is not None else math.inf,
+        )
+
+    def verdict(self) -> str:
+        """One line: the prediction and the cost."""
+        if self.failure is not None:
+            what = f"fails ({self.failure})"
+        elif self.knocked:
+            what = "knocks " + ", ".join(self.knocked)
+        elif self.unstable:
+            what = "unstable object"
+        elif self.retries > MANY_RETRIES:
+            what = f"{self.retries} retries"
+        else:
+            what = "clean"
+        cost = "-" if self.cost is None else f"{self.cost:.2f}"
+        return f"{what}, cost {cost}, {self.retries} retries"
+
+
+def _object_poses(world: Any, names: Sequence[str]) -> dict[str, Pose]:
+    poses: dict[str, Pose] = {}
+    for name in names:
+        try:
+            poses[name] = world.object_pose(name)
+        except Exception:
+            continue
+    return poses
+
+
+def _scene_names(world: Any) -> list[str]:
+    """The object names of the imagined world: a ``SceneSetup`` world's own, or the one it
+    wraps (the projection world model wraps its PyBullet world as ``.world``)."""
+    for candidate in (world, getattr(world, "world", None)):
+        if isinstance(candidate, SceneSetup):
+            return list(candidate.objects)
+    return []
+
+
+def assess_run(
+    name: str,
+    outcome: str,
+    params: ProjectedParameters,
+    start: Pose | None,
+    before: Mapping[str, Pose],
+    after: Mapping[str, Pose],
+    subject: str | None,
+    retries: int,
+    explored: Mapping[str, Any] | None = None,
+) -> RunAssessment:
+    """Assess one imagined run from its ``outcome`` (:func:`run_outcome`) and the object
+    poses ``before`` it and ``after`` it."""
+    failure = None if outcome == "succeeded" else outcome
+    knocked = tuple(
+        sorted(
+            n
+            for n, p in before.items()
+            if n != subject
+            and n in after
+            and (
+                math.dist(p.position, after[n].position) > KNOCK_DISTANCE
+                or abs(_tilt(after[n]) - _tilt(p)) > TILT
+            )
+        )
+    )
+    unstable = False
+    if subject is not None and subject in after and failure is None:
+        end = after[subject]
+        begin = before.get(subject)
+        tilted = _tilt(end) - (_tilt(begin) if begin is not None else 0.0) > TILT
+        unstable = tilted or end.position[2] < FLOOR_Z
+    route: tuple[Pose, ...] = ()
+    cost = None
+    if params.fetch_robot_location is not None and params.deliver_robot_location is not None:
+        try:
+            legs = [
+                params.fetch_robot_location.reference(),
+                params.deliver_robot_location.reference(),
+            ]
+            route = tuple(legs if start is None else [start, *legs])
+            cost = route_cost(route) + RETRY_COST * retries
+        except (DesignatorError, ValueError) as error:
+            log.info("projected run without a usable route: %s", error)
+    return RunAssessment(
+        name, failure, knocked, unstable, retries, route, cost, params, dict(explored or {})
+    )
+
+
+def pick_by_prediction(assessments: Sequence[RunAssessment]) -> RunAssessment | None:
+    """The best run by :meth:`RunAssessment.rank` among those that succeeded with a
+    complete route (the earliest on a tie); ``None`` when none did."""
+    usable = [r for r in assessments if r.failure is None and r.cost is not None]
+    return min(usable, key=RunAssessment.rank) if usable else None
+
+
+def why(winner: RunAssessment, others: Sequence[RunAssessment]) -> str:
+    """Why ``winner`` beat ``others``, in words."""
+    losers = [r for r in others if r is not winner]
+    reasons = []
+    for r in losers:
+        if r.failure is not None:
+            reasons.append(f"{r.name} fails")
+        elif r.knocked:
+            reasons.append(f"{r.name} knocks {', '.join(r.knocked)}")
+        elif r.unstable:
+            reasons.append(f"{r.name} leaves it unstable")
+        elif r.retries > MANY_RETRIES:
+            reasons.append(f"{r.name} needs {r.retries} retries")
+        elif r.cost is not None and winner.cost is not None:
+            reasons.append(f"{r.name} costs {r.cost - winner.cost:+.2f} more")
+    return "; ".join(reasons) or "the only usable run"
 
 
 #: ``pick(runs, start_pose)``: the run subtrees (in order) and the robot's base pose before
@@ -150,13 +463,102 @@ def pick_best_parameters_by_distance(
     return best[1] if best is not None else None
 
 
+# ---------------------------------------------------------------------------- fidelity
+def run_outcome(run: cpl.Task, failure: BaseException | None = None) -> str:
+    """``"succeeded"`` or the failure class name: the failure that ended ``run``, else that
+    of a failed ``delivering`` inside it (a transport that dropped its object at the sink
+    still returns), else ``"succeeded"``."""
+    failure = failure if failure is not None else run.failure
+    if failure is not None:
+        return type(failure).__name__
+    failed = performed(run, "delivering", state=cpl.Status.FAILED)
+    if failed and failed[-1][0].failure is not None:
+        return type(failed[-1][0].failure).__name__
+    return "succeeded"
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """How well the chosen imagined run predicted the real one.
+
+    ``predicted`` / ``real``: :func:`run_outcome` of each; ``agrees``: they are equal;
+    ``pick_base_m`` / ``place_base_m``: distance (m) between the imagined and the real
+    run's base goals (the newest effective ``navigating`` location before the successful
+    pick / place; ``None`` where one run has none); ``route_m``: |real route cost -
+    imagined route cost| (start -> pick base -> place base)."""
+
+    chosen: str
+    predicted: str
+    real: str
+    pick_base_m: float | None
+    place_base_m: float | None
+    route_m: float | None
+
+    @property
+    def agrees(self) -> bool:
+        return self.predicted == self.real
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "chosen": self.chosen,
+            "predicted": self.predicted,
+            "real": self.real,
+            "agrees": self.agrees,
+            "pick_base_m": self.pick_base_m,
+            "place_base_m": self.place_base_m,
+            "route_m": self.route_m,
+        }
+
+
+def _goal(location: LocationDesignator | None) -> Pose | None:
+    if location is None:
+        return None
+    try:
+        pose = location.reference()
+    except DesignatorError:
+        return None
+    return pose if isinstance(pose, Pose) else None
+
+
+def _apart(p: Pose | None, q: Pose | None) -> float | None:
+    if p is None or q is None or p.frame != q.frame:
+        return None
+    return math.dist(p.position[:2], q.position[:2])
+
+
+def measure_fidelity(
+    chosen: RunAssessment, real: cpl.Task, start: Pose | None, failure: BaseException | None
+) -> Fidelity:
+    """Compare the chosen imagined run with the finished real run ``real``."""
+    mine = projected_parameters(real)
+    pick, place = _goal(mine.fetch_robot_location), _goal(mine.deliver_robot_location)
+    route_m = None
+    if pick is not None and place is not None and chosen.cost is not None and chosen.route:
+        legs = [pick, place] if start is None else [start, pick, place]
+        try:
+            route_m = abs(route_cost(legs) - route_cost(chosen.route))
+        except ValueError:
+            route_m = None
+    imagined_pick = _goal(chosen.params.fetch_robot_location)
+    imagined_place = _goal(chosen.params.deliver_robot_location)
+    return Fidelity(
+        chosen.name,
+        "succeeded" if chosen.failure is None else chosen.failure,
+        run_outcome(real, failure),
+        _apart(imagined_pick, pick),
+        _apart(imagined_place, place),
+        route_m,
+    )
+
+
 # ---------------------------------------------------------------------------- the macro
 async def with_projected_task_tree(
     body: Callable[[ProjectedParameters], Awaitable[T]],
     runs: int = 3,
-    pick: Pick = pick_best_parameters_by_distance,
+    pick: Pick | None = None,
     *,
     enabled: bool = True,
+    subject: str | None = None,
 ) -> T:
     """Imagine ``body`` ``runs`` times, then run it for real with the picked parameters
     (CRAM's ``with-projected-task-tree``).
@@ -164,14 +566,24 @@ async def with_projected_task_tree(
     Pass-through (``body(ProjectedParameters())`` once, no subtrees) when ``enabled`` is
     false, the current environment is ``projecting``, or it has no ``imagination``.
     Otherwise: snapshot the belief world; in the imagination's projection environment, for
-    each run restore the snapshot and run ``body(ProjectedParameters())`` as the subtree
-    ``projection-run-<i>``; a plan failure or designator error ends that run only (its
-    subtree is FAILED). The snapshot is restored after the last run, also when a run
-    raises something else or the caller is evaporated (the projection environment is
-    left first, which stops its goals; restoring does not await). Then ``pick(run tasks,
-    robot pose before imagining)`` chooses the parameters (``None``: nothing injected) and
-    ``body(params)`` runs as the subtree ``real-run`` (annotated ``"projected"`` with the
-    parameters); its value or failure is the result."""
+    each run ``i`` restore the snapshot and run ``body(ProjectedParameters(exploration=
+    Exploration(i, runs, pools)))`` as the subtree ``projection-run-<i>`` (the body draws
+    its own alternative through :class:`Exploration`); a plan failure or designator error
+    ends that run only (its subtree is FAILED). Before the world is restored each run is
+    assessed (:func:`assess_run`: outcome, neighbours moved, ``subject`` unstable, retries,
+    route cost) and the assessment annotated on its subtree as ``"assessment"``. The
+    snapshot is restored after the last run, also when a run raises something else or the
+    caller is evaporated (the projection environment is left first, which stops its goals;
+    restoring does not await).
+
+    Choice: with ``pick`` (CRAM's interface, e.g. :func:`pick_best_parameters_by_distance`)
+    ``pick(run tasks, robot pose before imagining)``; by default :func:`pick_by_prediction`
+    (predicted success first, then cost). ``None``: nothing injected. Then ``body(params)``
+    runs as the subtree ``real-run``, annotated ``"projected"`` (the parameters),
+    ``"imagined"`` (the assessments), ``"chosen"`` / ``"why"`` and, when it ends,
+    ``"fidelity"`` (:class:`Fidelity`, when a run was chosen); its value or failure is the
+    result. Deliberate difference from CRAM: CRAM's imagined runs all draw from one
+    designator chain and it picks by distance only."""
     env = current_environment()
     imagination = env.imagination
     if not enabled or env.projecting or imagination is None:
@@ -179,31 +591,89 @@ async def with_projected_task_tree(
     start = env.world.robot_pose() if env.has_world else None
     snapshot = imagination.snapshot()
     run_tasks: list[cpl.Task] = []
-
-    async def imagine() -> T:
-        me = cpl.current_task()
-        assert me is not None
-        run_tasks.append(me)
-        return await body(ProjectedParameters())
+    assessments: list[RunAssessment] = []
+    pools: dict[str, tuple[Pose, ...]] = {}
+    t0 = time.perf_counter()
 
     try:
         with retry_ledger():  # imagined retries are not the caller's
             async with imagination.projection():
+                world = current_environment().world
+                names = _scene_names(world)
                 for i in range(1, runs + 1):
                     imagination.restore(snapshot)
+                    before = _object_poses(world, names)
+                    exploration = Exploration(i, runs, pools)
+                    given = ProjectedParameters(exploration=exploration)
+                    box: list[cpl.Task] = []
+                    counted: list[int] = [0]
+
+                    async def imagine(
+                        given: ProjectedParameters = given,
+                        box: list[cpl.Task] = box,
+                        counted: list[int] = counted,
+                    ) -> T:
+                        me = cpl.current_task()
+                        assert me is not None
+                        box.append(me)
+                        with retry_ledger() as ledger:
+                            try:
+                                return await body(given)
+                            finally:
+                                counted[0] = sum(ledger.values())
+
+                    failure: BaseException | None = None
                     try:
                         await cpl.tag(f"projection-run-{i}", imagine())
-                    except (cpl.PlanFailure, DesignatorError) as failure:
-                        log.info("projection run %d failed: %r", i, failure)
+                    except (cpl.PlanFailure, DesignatorError) as error:
+                        failure = error
+                        log.info("projection run %d failed: %r", i, error)
+                    if not box:
+                        continue
+                    run = box[0]
+                    run_tasks.append(run)
+                    assessment = assess_run(
+                        run.name,
+                        run_outcome(run, failure),
+                        projected_parameters(run),
+                        start,
+                        before,
+                        _object_poses(world, names),
+                        subject,
+                        counted[0],
+                        exploration.explored,
+                    )
+                    run.annotate("assessment", assessment)
+                    assessments.append(assessment)
     finally:
         imagination.restore(snapshot)
-    params = pick(run_tasks, start)
+    imagined_wall = time.perf_counter() - t0
+    chosen: RunAssessment | None = None
+    if pick is not None:
+        params = pick(run_tasks, start)
+    else:
+        chosen = pick_by_prediction(assessments)
+        params = chosen.params if chosen is not None else None
 
     async def real() -> T:
         me = cpl.current_task()
-        if me is not None and params is not None:
-            me.annotate("projected", params)
-        return await body(params if params is not None else ProjectedParameters())
+        if me is not None:
+            me.annotate("imagined", tuple(assessments))
+            me.annotate("imagined_wall_s", imagined_wall)
+            if params is not None:
+                me.annotate("projected", params)
+            if chosen is not None:
+                me.annotate("chosen", chosen.name)
+                me.annotate("why", why(chosen, assessments))
+        failure: BaseException | None = None
+        try:
+            return await body(params if params is not None else ProjectedParameters())
+        except BaseException as error:
+            failure = error
+            raise
+        finally:
+            if me is not None and chosen is not None and not isinstance(failure, cpl.Evaporated):
+                me.annotate("fidelity", measure_fidelity(chosen, me, start, failure))
 
     result: T = await cpl.tag("real-run", real())
     return result

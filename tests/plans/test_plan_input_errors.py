@@ -101,3 +101,16 @@ def test_opening_a_drawer_too_far_fails_before_the_arm_moves(mrun, world):
     with pytest.raises(DesignatorError, match="distance must be a number of metres > 0"):
         _run(mrun, world, an.action(type="opening", object=DRAWER, arm="left", distance=-1))
     assert _state(world) == before
+
+
+def test_importing_plans_keeps_unknown_location_keys_an_error() -> None:
+    """Every location generator plans registers declares its keys, so a misspelt key
+    still fails with the known keys listed (a generator without keys= would accept any)."""
+    import pytest
+
+    import plans
+    from executive import DesignatorError, a, an
+
+    del plans
+    with pytest.raises(DesignatorError, match=r"unknown key 'on-top-of' for a location"):
+        a.location(on_top_of=an.object(type="table")).reference()

@@ -1,0 +1,179 @@
+"""``imagine_best``: imagine named alternatives, then run the best one for real.
+
+Projection beyond one transport (CRAM projects only inside ``transporting``): a plan that
+would otherwise make a choice by fixed order hands :func:`imagine_best` its alternatives,
+each a zero-argument coroutine function (any ``cpl`` form, a ``perform``, a plan). In the
+environment's imagination each runs once, from the same snapshot of the belief world, as
+the subtree ``imagine-<name>``; every one is summarised as an :class:`Imagined` (outcome,
+retries, simulated duration, how far the robot drove), annotated on its subtree; ``score``
+ranks them (smaller is better; default :func:`by_success_then_time`) and the best one
+runs for real as the subtree ``chosen-<name>``, annotated with all the summaries and the
+winner. Its value or failure is the result.
+
+Pass-through (the first alternative runs as ``chosen-<name>``, nothing imagined) when
+``enabled`` is false, the environment is already projecting (so reasoning inside
+projection stays a pass-through) or it cannot imagine.
+
+Example (the demo's order of transports)::
+
+    order = await imagine_best({
+        "cup-first": lambda: transport_then("cup", "bowl"),
+        "bowl-first": lambda: transport_then("bowl", "cup"),
+    })
+"""
+
+from __future__ import annotations
+
+import contextvars
+import logging
+import math
+from collections.abc import Awaitable, Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+import cpl
+from executive import DesignatorError, current_environment
+from executive.events import RobotStateChanged
+
+from ._common import retry_ledger
+
+__all__ = ["Imagined", "by_success_then_time", "imagine_best", "imagining"]
+
+log = logging.getLogger("plans.imagining")
+
+T = TypeVar("T")
+
+#: The name of the alternative being imagined in this context (``None``: not imagining).
+_IMAGINING: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "plans_imagining", default=None
+)
+
+
+def imagining() -> str | None:
+    """The name of the :func:`imagine_best` alternative being imagined here, else ``None``
+    (an alternative may skip the bookkeeping of a real run while it is only imagined)."""
+    return _IMAGINING.get()
+
+
+@dataclass(frozen=True)
+class Imagined:
+    """One imagined alternative: ``outcome`` ``"succeeded"`` or the failure class name;
+    ``retries`` granted in it; ``sim_s`` its simulated duration; ``driven_m`` how far the
+    imagined base moved; ``value`` what it returned (``None`` when it failed)."""
+
+    name: str
+    outcome: str
+    retries: int
+    sim_s: float
+    driven_m: float
+    value: Any = None
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "succeeded"
+
+    def line(self) -> str:
+        return (
+            f"{self.name}: {self.outcome}, {self.retries} retries, "
+            f"{self.sim_s:.1f} s, {self.driven_m:.2f} m"
+        )
+
+
+def by_success_then_time(imagined: Imagined) -> tuple[Any, ...]:
+    """The default score: success first, then retries, then simulated time, then driving."""
+    return (not imagined.succeeded, imagined.retries, imagined.sim_s, imagined.driven_m)
+
+
+async def imagine_best(
+    alternatives: Mapping[str, Callable[[], Awaitable[T]]],
+    score: Callable[[Imagined], Any] = by_success_then_time,
+    *,
+    enabled: bool = True,
+) -> T:
+    """Imagine every alternative, run the best for real (see the module docstring).
+    No alternatives, or a name that is not a non-empty string: ValueError, before anything
+    runs. Ties go to the earlier alternative."""
+    if not alternatives:
+        raise ValueError("imagine_best needs at least one alternative")
+    for name, fn in alternatives.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"imagine_best: alternative names are non-empty strings, got {name!r}")
+        if not callable(fn):
+            raise ValueError(f"imagine_best: alternative {name!r} is not callable: {fn!r}")
+    names = list(alternatives)
+    env = current_environment()
+    imagination = env.imagination
+    if not enabled or env.projecting or imagination is None or len(names) == 1:
+        return await _chosen(names[0], alternatives[names[0]], (), "pass-through")
+    snapshot = imagination.snapshot()
+    results: list[Imagined] = []
+    try:
+        with retry_ledger():
+            async with imagination.projection():
+                dream = current_environment()
+                for name in names:
+                    imagination.restore(snapshot)
+                    results.append(await _imagine(name, alternatives[name], dream))
+    finally:
+        imagination.restore(snapshot)
+    best = min(range(len(results)), key=lambda i: (score(results[i]), i))
+    winner = names[best]
+    reason = "; ".join(r.line() for r in results)
+    return await _chosen(winner, alternatives[winner], tuple(results), reason)
+
+
+async def _imagine(name: str, fn: Callable[[], Awaitable[Any]], dream: Any) -> Imagined:
+    driven = [0.0]
+    last = [dream.world.robot_pose() if dream.has_world else None]
+
+    def moved(_event: Any) -> None:
+        now = dream.world.robot_pose()
+        if last[0] is not None:
+            driven[0] += math.dist(now.position[:2], last[0].position[:2])
+        last[0] = now
+
+    unsubscribe = dream.subscribe(RobotStateChanged, moved) if dream.has_world else None
+    box: list[cpl.Task] = []
+
+    async def run() -> Any:
+        me = cpl.current_task()
+        assert me is not None
+        box.append(me)
+        token = _IMAGINING.set(name)
+        try:
+            return await fn()
+        finally:
+            _IMAGINING.reset(token)
+
+    outcome, value = "succeeded", None
+    with retry_ledger() as ledger:
+        try:
+            value = await cpl.tag(f"imagine-{name}", run())
+        except (cpl.PlanFailure, DesignatorError) as failure:
+            outcome = type(failure).__name__
+            log.info("imagined alternative %s failed: %r", name, failure)
+        finally:
+            if unsubscribe is not None:
+                unsubscribe()
+    task = box[0] if box else None
+    sim = 0.0
+    if task is not None and task.start_time is not None and task.end_time is not None:
+        sim = task.end_time - task.start_time
+    imagined = Imagined(name, outcome, sum(ledger.values()), sim, driven[0], value)
+    if task is not None:
+        task.annotate("imagined", imagined)
+    return imagined
+
+
+async def _chosen(
+    name: str, fn: Callable[[], Awaitable[T]], imagined: tuple[Imagined, ...], reason: str
+) -> T:
+    async def run() -> T:
+        me = cpl.current_task()
+        if me is not None:
+            me.annotate("alternatives", imagined)
+            me.annotate("why", reason)
+        return await fn()
+
+    result: T = await cpl.tag(f"chosen-{name}", run())
+    return result

@@ -1,0 +1,200 @@
+"""Imagined runs that explore (each its own region / arm / target), the choice by
+predicted success then cost, and the fidelity record of the real run (issue 14)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from test_reasoning import (  # type: ignore[import-not-found]
+    RUN_NAMES,
+    child,
+    nav_pose_before,
+    run_real,
+    setup,
+    transporting,
+)
+
+import cpl
+from executive import Pose, perform, performed
+from plans.reasoning import (
+    ProjectedParameters,
+    RunAssessment,
+    assess_run,
+    measure_fidelity,
+    partition_by_bearing,
+    pick_by_prediction,
+    why,
+)
+
+
+# ------------------------------------------------------------------------ exploration
+def test_imagined_runs_explore_different_regions_and_arms():
+    _world, real, _dream, imagination = setup()
+    root, result = run_real(real, imagination, lambda: perform(transporting()))
+    assert result is not None
+    runs = [child(root, n) for n in RUN_NAMES]
+    explored = [r.annotations["assessment"].explored for r in runs]
+    assert [e["arm"] for e in explored] == ["any", "left", "right"]
+    assert len({e["pick base"] for e in explored}) == 3
+    # the pick base poses the runs drove to are three different poses, one per region
+    bases = [nav_pose_before(r, "fetching", "picking-up") for r in runs]
+    assert len({p.position for p in bases}) == 3
+    # the picking-up used the explored arm where the run fixed one
+    for run, arm in zip(runs[1:], ("left", "right")):
+        picks = [d for _t, d in performed(run, "picking-up")]
+        assert picks and picks[-1].get("arm") == arm
+
+
+@given(
+    st.lists(
+        st.tuples(st.floats(-3, 3), st.floats(-3, 3)).filter(lambda p: math.hypot(*p) > 0.1),
+        max_size=20,
+    ),
+    st.integers(1, 5),
+)
+def test_partition_by_bearing_splits_every_pose_into_contiguous_regions(points, parts):
+    poses = [Pose((x, y, 0.0)) for x, y in points]
+    regions = partition_by_bearing(poses, (0.0, 0.0), parts)
+    assert len(regions) == parts
+    flat = [p for r in regions for p in r]
+    assert sorted(map(id, flat)) == sorted(map(id, poses))
+    sizes = [len(r) for r in regions]
+    assert max(sizes) - min(sizes) <= 1
+
+
+def test_partition_needs_a_part():
+    with pytest.raises(ValueError, match="at least one part"):
+        partition_by_bearing([], (0.0, 0.0), 0)
+
+
+# ------------------------------------------------------------------------- prediction
+def _assessment(name: str, route_x: float, **kw: Any) -> RunAssessment:
+    before = {"cup-1": Pose((1.0, 0.0, 0.9)), "bowl-1": Pose((1.2, 0.0, 0.9))}
+    after = dict(kw.pop("after", before))
+    params = ProjectedParameters()
+    outcome, retries = kw.pop("outcome", "succeeded"), kw.pop("retries", 0)
+    a = assess_run(name, outcome, params, None, before, after, "cup-1", retries)
+    route = (Pose((0.0, 0.0, 0.0)), Pose((route_x, 0.0, 0.0)))
+    return RunAssessment(
+        a.name, a.failure, a.knocked, a.unstable, a.retries, route,
+        route_x + a.retries, params, {},
+    )
+
+
+def test_a_predicted_knock_off_loses_to_a_clean_longer_run():
+    knocked = {"cup-1": Pose((2.0, 0.0, 0.9)), "bowl-1": Pose((1.2, 0.3, 0.0))}
+    short = _assessment("projection-run-1", 1.0, after=knocked)
+    long = _assessment("projection-run-2", 5.0)
+    assert short.knocked == ("bowl-1",) and not short.clean and long.clean
+    assert pick_by_prediction([short, long]) is long
+    assert "projection-run-1 knocks bowl-1" in why(long, [short, long])
+
+
+def test_a_predicted_unstable_placement_loses_to_a_clean_longer_run():
+    s = math.sin(0.5)
+    toppled = {
+        "cup-1": Pose((2.0, 0.0, 0.9), (s, 0.0, 0.0, math.cos(0.5))),
+        "bowl-1": Pose((1.2, 0.0, 0.9)),
+    }
+    short = _assessment("projection-run-1", 1.0, after=toppled)
+    long = _assessment("projection-run-2", 5.0)
+    assert short.unstable and not short.knocked
+    assert pick_by_prediction([short, long]) is long
+
+
+def test_many_retries_lose_and_failures_never_win():
+    retried = _assessment("projection-run-1", 1.0, retries=5)
+    failed = _assessment("projection-run-2", 0.5, outcome="ObjectUnfetchable")
+    clean = _assessment("projection-run-3", 4.0)
+    assert pick_by_prediction([retried, failed, clean]) is clean
+    assert pick_by_prediction([failed]) is None
+    # among clean runs the cheaper route (retries priced in) wins
+    a, b = _assessment("a", 2.0, retries=1), _assessment("b", 2.5)
+    assert pick_by_prediction([a, b]) is b
+
+
+# --------------------------------------------------------------------------- fidelity
+def test_fidelity_records_a_real_run_that_disagrees_with_its_prediction():
+    """Scripted: the imagined runs succeed; the real robot's arm fails on every motion
+    (object-unfetchable). The record says: predicted succeeded, real ObjectUnfetchable."""
+    from conftest import make_robot
+
+    from executive import ManipulationLowLevelFailure, ObjectUnfetchable
+
+    world, _real, _dream, imagination = setup()
+    real = make_robot(world, arms={n: ManipulationLowLevelFailure for n in range(1, 10_000)})
+    box: list[cpl.Task] = []
+
+    async def body() -> Any:
+        me = cpl.current_task()
+        assert me is not None
+        box.append(me)
+        return await perform(transporting())
+
+    with pytest.raises(ObjectUnfetchable):
+        run_real(real, imagination, body)
+    real_run = child(box[0], "real-run")
+    assert real_run.state is cpl.Status.FAILED
+    fid = real_run.annotations["fidelity"]
+    assert fid.predicted == "succeeded" and fid.real == "ObjectUnfetchable"
+    assert not fid.agrees
+    assert fid.to_json()["agrees"] is False
+    # it never placed: no place base pose to compare
+    assert fid.place_base_m is None
+
+
+def test_measure_fidelity_on_a_finished_task_tree():
+    """measure_fidelity reads the real run's own tree: here it failed -> disagreement."""
+    _world, real, _dream, imagination = setup()
+    root, _ = run_real(real, imagination, lambda: perform(transporting()))
+    real_run = child(root, "real-run")
+    fid = real_run.annotations["fidelity"]
+    assert fid.chosen == real_run.annotations["chosen"]
+    assert fid.predicted == "succeeded" and fid.real == "succeeded" and fid.agrees
+    assert fid.pick_base_m == pytest.approx(0.0) and fid.place_base_m == pytest.approx(0.0)
+    chosen = next(
+        r.annotations["assessment"] for r in (child(root, n) for n in RUN_NAMES)
+        if r.name == fid.chosen
+    )
+    disagreeing = measure_fidelity(chosen, real_run, None, ValueError("boom"))
+    assert disagreeing.real == "ValueError" and not disagreeing.agrees
+
+
+def test_the_demo_and_campaign_read_the_fidelity_from_the_tree():
+    """aiocram.foresight: the per-transport rows and the campaign's fidelity aggregate,
+    on one transport that agrees and one whose real robot failed."""
+    from conftest import make_robot
+
+    from aiocram.foresight import fidelity_lines, fidelity_summary, foresight_records
+    from executive import ManipulationLowLevelFailure, ObjectUnfetchable
+
+    _world, real, _dream, imagination = setup()
+    root, _ = run_real(real, imagination, lambda: perform(transporting()))
+    (good,) = foresight_records(root)
+    assert good["object"] == "cup" and len(good["imagined"]) == 3
+    assert good["chosen"] in RUN_NAMES and good["fidelity"]["agrees"] is True
+
+    world, _real, _dream, imagination = setup()
+    failing = make_robot(world, arms={n: ManipulationLowLevelFailure for n in range(1, 10_000)})
+    box: list[cpl.Task] = []
+
+    async def body() -> Any:
+        me = cpl.current_task()
+        assert me is not None
+        box.append(me)
+        return await perform(transporting())
+
+    with pytest.raises(ObjectUnfetchable):
+        run_real(failing, imagination, body)
+    (bad,) = foresight_records(box[0])
+    assert bad["fidelity"]["real"] == "ObjectUnfetchable" and not bad["fidelity"]["agrees"]
+    summary = fidelity_summary([{"foresight": [good]}, {"foresight": [bad]}])
+    assert summary["transports"] == 2 and summary["agreed"] == 1
+    assert summary["fidelity"] == pytest.approx(0.5)
+    (line,) = fidelity_lines([{"fault_rate": 0.1, "fidelity": summary}])
+    assert "1/2 = 50.0 % predicted" in line
+    assert fidelity_lines([{"fault_rate": 0.0, "fidelity": fidelity_summary([])}]) == []
