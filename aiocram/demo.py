@@ -38,7 +38,6 @@ __all__ = ["DEFAULT_OBJECTS", "DemoConfig", "DemoReport", "add_parser", "run_dem
 DEFAULT_OBJECTS = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
 
 
-
 class DemoConfigError(ValueError):
     """A :class:`DemoConfig` field (a command-line flag) is wrong; the message names the
     flag and says what to give instead. Raised before anything is written or moved."""
@@ -68,8 +67,7 @@ class DemoConfig:
         unknown = [o for o in self.objects if o not in DEFAULT_OBJECTS]
         if unknown:
             raise DemoConfigError(
-                f"--objects: unknown objects {unknown}; the demo knows "
-                f"{' '.join(DEFAULT_OBJECTS)}"
+                f"--objects: unknown objects {unknown}; the demo knows {' '.join(DEFAULT_OBJECTS)}"
             )
         if not self.objects:
             raise DemoConfigError("--objects: give at least one object")
@@ -254,9 +252,7 @@ OUTPUT_FILES = ("log.jsonl", "plans.log", "final_scene.png", "robot_view.png")
 _STALE = (*OUTPUT_FILES, "costmap-*.png")
 
 
-def run_demo(
-    config: DemoConfig, console: Any = None, *, interrupts: Any = None
-) -> DemoReport:
+def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None) -> DemoReport:
     """Run the demo as configured; write its files if ``config.out`` is set.
 
     Every field is checked first (:meth:`DemoConfig.check`): a bad one raises
@@ -595,9 +591,7 @@ def _whole(minimum: int) -> Callable[[str], int]:
         except ValueError:
             value = minimum - 1
         if value < minimum:
-            raise argparse.ArgumentTypeError(
-                f"must be a whole number >= {minimum}, got {text!r}"
-            )
+            raise argparse.ArgumentTypeError(f"must be a whole number >= {minimum}, got {text!r}")
         return value
 
     return parse
@@ -632,9 +626,7 @@ def add_parser(subparsers: Any) -> None:
         default=1,
         help="seeds the scene, the sampling and the faults (whole number >= 0)",
     )
-    p.add_argument(
-        "--runs", type=_whole(1), default=3, help="imagined runs per transport (>= 1)"
-    )
+    p.add_argument("--runs", type=_whole(1), default=3, help="imagined runs per transport (>= 1)")
     p.add_argument(
         "--no-projection",
         action="store_true",

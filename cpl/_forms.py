@@ -179,9 +179,7 @@ async def try_in_order(*aws: Branch) -> Any:
     raise composite
 
 
-async def try_each_in_order(
-    values: Iterable[Any], fn: Callable[[Any], Awaitable[Any]]
-) -> Any:
+async def try_each_in_order(values: Iterable[Any], fn: Callable[[Any], Awaitable[Any]]) -> Any:
     """Call ``fn(value)`` for each value in turn, in the current task, until one succeeds;
     return its result (CRAM's ``try-each-in-order``). Only :class:`~cpl.PlanFailure` moves
     on to the next value; all failed: :class:`~cpl.CompositeFailure` with the failures in

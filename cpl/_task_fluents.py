@@ -1,6 +1,6 @@
 """Fluents over a task's life (CRAM's ``task-alive`` and ``task-dead``), usable in nets::
 
-    await cpl.wait_for(cpl.fl_or(cpl.task_dead(grasping), too_close))
+await cpl.wait_for(cpl.fl_or(cpl.task_dead(grasping), too_close))
 """
 
 from __future__ import annotations

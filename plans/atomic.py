@@ -278,9 +278,7 @@ def _arm_motion_rule(action_type: str) -> Any:
 
 
 for _action_type in _COLLISION_MODES:
-    rule("action", _action_type, keys=("left-poses", "right-poses"))(
-        _arm_motion_rule(_action_type)
-    )
+    rule("action", _action_type, keys=("left-poses", "right-poses"))(_arm_motion_rule(_action_type))
 
 
 @cpl.plan(name="position-arms")

@@ -142,7 +142,9 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
             checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
             checks += [True] * len(args["retract_poses"])
             result = world.probe_arm_trajectory(
-                args["arm"], waypoints, allowed_contacts=(object_name(obj),),
+                args["arm"],
+                waypoints,
+                allowed_contacts=(object_name(obj),),
                 check_collisions=checks,
             )
             if result.ok:

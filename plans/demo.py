@@ -157,9 +157,7 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
     # delivered one; if the bowl is still on the sink counter these designators have no
     # solution (object-undeliverable), rather than a spot beside it on the sink counter
     if object_type in ("cup", "spoon"):
-        return a.location(
-            right_of=bowl, near=bowl, on=ISLAND, for_=an.object(type=object_type)
-        )
+        return a.location(right_of=bowl, near=bowl, on=ISLAND, for_=an.object(type=object_type))
     if object_type == "milk":
         return a.location(left_of=bowl, far_from=bowl, on=ISLAND, for_=an.object(type="milk"))
     x, y, z = CEREAL_TARGET.position
@@ -176,9 +174,7 @@ def _spawn_location(object_type: str) -> LocationDesignator:
     the objects already spawned."""
     for_ = an.object(type=object_type)
     if object_type == "spoon":
-        return a.location(
-            ("side", "front"), in_=DRAWER, range=0.2, range_invert=0.12, for_=for_
-        )
+        return a.location(("side", "front"), in_=DRAWER, range=0.2, range_invert=0.12, for_=for_)
     fetch = fetch_location(object_type)
     sides = [("side", s) for s in ("left", "front") if s not in fetch.get_all("side")]
     return a.location(*fetch.properties, *sides, for_=for_)
@@ -399,9 +395,7 @@ async def table_setting(
                         type="transporting",
                         object=obj,
                         location=fetch_location(outcome.type),
-                        target=place_location(
-                            outcome.type, bowl_placed=_bowl_placed(outcomes)
-                        ),
+                        target=place_location(outcome.type, bowl_placed=_bowl_placed(outcomes)),
                         projection_reasoning=projection_reasoning,
                         projection_runs=projection_runs,
                     )

@@ -181,9 +181,7 @@ class Exploration:
         if pool is None:
             try:
                 n = POOL_PER_RUN * self.runs
-                pool = tuple(
-                    to_pose(p) for p in islice(iter(designator.solutions()), n)
-                )
+                pool = tuple(to_pose(p) for p in islice(iter(designator.solutions()), n))
             except DesignatorError as error:
                 log.info("no pool for %s: %s", key, error)
                 pool = ()

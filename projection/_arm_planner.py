@@ -222,7 +222,6 @@ def reroute_cartesian(
     return arm_path(world, arms, start, goal, fallback=False)
 
 
-
 def _touched(world: World, free: set[str]) -> set[str]:
     """The free objects the robot (or what it holds) touches now."""
     return {c.body_b for c in world.robot_collisions() if c.body_b in free}

@@ -85,4 +85,3 @@ def along_base(path: list[BasePose], legs: list[float], s: float) -> BasePose:
         )
 
     return along_timed(path, legs, s, lerp)
-

@@ -258,7 +258,8 @@ class Costmap:
         """The flat indices (ascending) of the cells inside every factor's bounds, grown
         by one cell; None without bounded factors."""
         boxes = [
-            f.bounds for f in self.factors
+            f.bounds
+            for f in self.factors
             if f.bounds is not None and all(math.isfinite(v) for v in f.bounds)
         ]
         if not boxes:
@@ -486,9 +487,14 @@ def add_demo_area(
         return out
 
     bounds = (
-        (min(r[0] for r in rects), max(r[1] for r in rects),
-         min(r[2] for r in rects), max(r[3] for r in rects))
-        if rects else None
+        (
+            min(r[0] for r in rects),
+            max(r[1] for r in rects),
+            min(r[2] for r in rects),
+            max(r[3] for r in rects),
+        )
+        if rects
+        else None
     )
     cm.add("demo-restricted-area", f, 5, bounds=bounds)
 
@@ -783,9 +789,14 @@ def add_slots(
         return np.asarray(d <= thr, dtype=float)
 
     bounds = (
-        (float(pts[:, 0].min()) - thr, float(pts[:, 0].max()) + thr,
-         float(pts[:, 1].min()) - thr, float(pts[:, 1].max()) + thr)
-        if pts.size else None
+        (
+            float(pts[:, 0].min()) - thr,
+            float(pts[:, 0].max()) + thr,
+            float(pts[:, 1].min()) - thr,
+            float(pts[:, 1].max()) + thr,
+        )
+        if pts.size
+        else None
     )
     cm.add("table-setting-slots", f, 6, bounds=bounds)
     return centres

@@ -32,13 +32,14 @@ def quat_yaw(q: Sequence[float]) -> float:
 def quat_mul(a: Sequence[float], b: Sequence[float]) -> Quat:
     ax, ay, az, aw = a
     bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz)
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
 
 
 def angle(q1: Sequence[float], q2: Sequence[float]) -> float:
     dot = abs(sum(a * b for a, b in zip(q1, q2)))
     return 2.0 * math.acos(min(1.0, dot))
-

@@ -564,11 +564,19 @@ class LocationCostmaps:
                 if other == link or other.startswith(link):
                     continue
                 clo, chi = world.link_aabb(other)
-                if not ((clo[1] <= lo[1] + 1e-3 and hi[1] <= chi[1] + 1e-3)
-                        or (clo[0] <= lo[0] + 1e-3 and hi[0] <= chi[0] + 1e-3)):
+                if not (
+                    (clo[1] <= lo[1] + 1e-3 and hi[1] <= chi[1] + 1e-3)
+                    or (clo[0] <= lo[0] + 1e-3 and hi[0] <= chi[0] + 1e-3)
+                ):
                     continue
-                if not (lo[0] < chi[0] and clo[0] < hi[0] and lo[1] < chi[1] and clo[1] < hi[1]
-                        and lo[2] < chi[2] and clo[2] < hi[2]):
+                if not (
+                    lo[0] < chi[0]
+                    and clo[0] < hi[0]
+                    and lo[1] < chi[1]
+                    and clo[1] < hi[1]
+                    and lo[2] < chi[2]
+                    and clo[2] < hi[2]
+                ):
                     continue
                 for amount, axis in (
                     (clo[0] - lo[0], (-1.0, 0.0)),

@@ -94,19 +94,31 @@ def _build() -> Mapping[str, ObjectType]:
         (0.105, 0.08, 0.10),
     )
     spoon = ObjectType(
-        "spoon", (Shape("box", (0.16, 0.03, 0.015)),), 0.03, (0.1, 0.2, 0.9, 1.0),
+        "spoon",
+        (Shape("box", (0.16, 0.03, 0.015)),),
+        0.03,
+        (0.1, 0.2, 0.9, 1.0),
         (0.16, 0.03, 0.015),
     )
     cereal = ObjectType(
-        "breakfast-cereal", (Shape("box", (0.19, 0.07, 0.29)),), 0.4, (0.95, 0.75, 0.1, 1.0),
+        "breakfast-cereal",
+        (Shape("box", (0.19, 0.07, 0.29)),),
+        0.4,
+        (0.95, 0.75, 0.1, 1.0),
         (0.19, 0.07, 0.29),
     )
     milk = ObjectType(
-        "milk", (Shape("box", (0.06, 0.095, 0.2)),), 1.0, (0.95, 0.95, 1.0, 1.0),
+        "milk",
+        (Shape("box", (0.06, 0.095, 0.2)),),
+        1.0,
+        (0.95, 0.95, 1.0, 1.0),
         (0.06, 0.095, 0.2),
     )
     plate = ObjectType(
-        "plate", (Shape("cylinder", (0.13, 0.02, 0.0)),), 0.4, (0.7, 0.7, 0.7, 1.0),
+        "plate",
+        (Shape("cylinder", (0.13, 0.02, 0.0)),),
+        0.4,
+        (0.7, 0.7, 0.7, 1.0),
         (0.26, 0.26, 0.02),
     )
     return MappingProxyType({t.name: t for t in (bowl, cup, spoon, cereal, milk, plate)})

@@ -151,8 +151,10 @@ class _Body:
         for body in free:
             (lx, ly, lz), (ax, ay, az) = pb.getBaseVelocity(body, physicsClientId=c)
             # |v| by hand: numpy's norm costs ~6 us per 3-vector, this runs per step
-            if (math.sqrt(lx * lx + ly * ly + lz * lz) > lin_eps
-                    or math.sqrt(ax * ax + ay * ay + az * az) > ang_eps):
+            if (
+                math.sqrt(lx * lx + ly * ly + lz * lz) > lin_eps
+                or math.sqrt(ax * ax + ay * ay + az * az) > ang_eps
+            ):
                 return True
         robot = world.robot_body
         pb.performCollisionDetection(physicsClientId=c)
@@ -220,7 +222,6 @@ def _joint_indices(world: World) -> dict[str, int]:
         if info[2] != pb.JOINT_FIXED:
             out[info[1].decode()] = i
     return out
-
 
 
 def settle(world: World, steps: int = 100) -> None:

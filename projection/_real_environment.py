@@ -70,4 +70,3 @@ async def with_real_robot(
     )
     async with executive.environment(env):
         yield env
-

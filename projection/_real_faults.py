@@ -121,4 +121,3 @@ class FaultProfile:
     def rates(self) -> Mapping[str, float]:
         """Failure kind -> rate."""
         return {kind: getattr(self, kind) for kind in self.KINDS}
-

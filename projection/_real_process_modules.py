@@ -449,7 +449,6 @@ class RealArmsPM(RealProcessModule):
         return None
 
 
-
 def real_process_modules(
     true_world: World, belief_world: World, faults: FaultProfile | None = None
 ) -> tuple[RealProcessModule, ...]:
@@ -465,4 +464,3 @@ def real_process_modules(
         RealGrippersPM(body),
         RealArmsPM(body),
     )
-

@@ -104,8 +104,10 @@ def _extent(shapes: Sequence[Shape]) -> Vec3:
     lo = [math.inf] * 3
     hi = [-math.inf] * 3
     for s in shapes:
-        half = (s.size[0], s.size[0], s.size[1] / 2) if s.kind == "cylinder" else tuple(
-            v / 2 for v in s.size
+        half = (
+            (s.size[0], s.size[0], s.size[1] / 2)
+            if s.kind == "cylinder"
+            else tuple(v / 2 for v in s.size)
         )
         r = max(half)
         for i in range(3):
@@ -193,39 +195,114 @@ def _arm(side: str) -> tuple[list[Link], list[Joint]]:
         Link(p + "wrist_flex_link", (_box((0.05, 0.05, 0.05)),), 0.3, _DARK),
         Link(p + "wrist_roll_link", (), 0.1),
         Link(p + "gripper_palm_link", (_box((0.09, 0.07, 0.045), (0.065, 0.0, 0.0)),), 0.5, _DARK),
-        Link(p + "gripper_l_finger_link", (_box((0.09, 0.01, 0.02), (0.0, 0.005, 0.0)),), 0.05,
-             _GREY),
-        Link(p + "gripper_r_finger_link", (_box((0.09, 0.01, 0.02), (0.0, -0.005, 0.0)),), 0.05,
-             _GREY),
+        Link(
+            p + "gripper_l_finger_link", (_box((0.09, 0.01, 0.02), (0.0, 0.005, 0.0)),), 0.05, _GREY
+        ),
+        Link(
+            p + "gripper_r_finger_link",
+            (_box((0.09, 0.01, 0.02), (0.0, -0.005, 0.0)),),
+            0.05,
+            _GREY,
+        ),
         Link(p + "gripper_tool_frame", (), 0.01),
     ]
     y_axis = (0.0, 1.0, 0.0)
     x_axis = (1.0, 0.0, 0.0)
     joints = [
-        Joint(p + "shoulder_pan_joint", "revolute", "torso_lift_link", p + "shoulder_pan_link",
-              (0.0, s * SHOULDER_Y, 0.0), lower=pan[0], upper=pan[1]),
-        Joint(p + "shoulder_lift_joint", "revolute", p + "shoulder_pan_link",
-              p + "shoulder_lift_link", (0.1, 0.0, 0.0), axis=y_axis, lower=-0.5236,
-              upper=1.3963),
-        Joint(p + "upper_arm_roll_joint", "revolute", p + "shoulder_lift_link",
-              p + "upper_arm_roll_link", axis=x_axis, lower=roll[0], upper=roll[1]),
-        Joint(p + "elbow_flex_joint", "revolute", p + "upper_arm_roll_link",
-              p + "elbow_flex_link", (UPPER_ARM, 0.0, 0.0), axis=y_axis, lower=-2.3213, upper=0.0),
-        Joint(p + "forearm_roll_joint", "revolute", p + "elbow_flex_link",
-              p + "forearm_roll_link", axis=x_axis, lower=-math.pi, upper=math.pi),
-        Joint(p + "wrist_flex_joint", "revolute", p + "forearm_roll_link",
-              p + "wrist_flex_link", (FOREARM, 0.0, 0.0), axis=y_axis, lower=-2.0943, upper=0.0),
-        Joint(p + "wrist_roll_joint", "revolute", p + "wrist_flex_link", p + "wrist_roll_link",
-              axis=x_axis, lower=-math.pi, upper=math.pi),
+        Joint(
+            p + "shoulder_pan_joint",
+            "revolute",
+            "torso_lift_link",
+            p + "shoulder_pan_link",
+            (0.0, s * SHOULDER_Y, 0.0),
+            lower=pan[0],
+            upper=pan[1],
+        ),
+        Joint(
+            p + "shoulder_lift_joint",
+            "revolute",
+            p + "shoulder_pan_link",
+            p + "shoulder_lift_link",
+            (0.1, 0.0, 0.0),
+            axis=y_axis,
+            lower=-0.5236,
+            upper=1.3963,
+        ),
+        Joint(
+            p + "upper_arm_roll_joint",
+            "revolute",
+            p + "shoulder_lift_link",
+            p + "upper_arm_roll_link",
+            axis=x_axis,
+            lower=roll[0],
+            upper=roll[1],
+        ),
+        Joint(
+            p + "elbow_flex_joint",
+            "revolute",
+            p + "upper_arm_roll_link",
+            p + "elbow_flex_link",
+            (UPPER_ARM, 0.0, 0.0),
+            axis=y_axis,
+            lower=-2.3213,
+            upper=0.0,
+        ),
+        Joint(
+            p + "forearm_roll_joint",
+            "revolute",
+            p + "elbow_flex_link",
+            p + "forearm_roll_link",
+            axis=x_axis,
+            lower=-math.pi,
+            upper=math.pi,
+        ),
+        Joint(
+            p + "wrist_flex_joint",
+            "revolute",
+            p + "forearm_roll_link",
+            p + "wrist_flex_link",
+            (FOREARM, 0.0, 0.0),
+            axis=y_axis,
+            lower=-2.0943,
+            upper=0.0,
+        ),
+        Joint(
+            p + "wrist_roll_joint",
+            "revolute",
+            p + "wrist_flex_link",
+            p + "wrist_roll_link",
+            axis=x_axis,
+            lower=-math.pi,
+            upper=math.pi,
+        ),
         Joint(p + "gripper_palm_joint", "fixed", p + "wrist_roll_link", p + "gripper_palm_link"),
-        Joint(p + "gripper_l_finger_joint", "prismatic", p + "gripper_palm_link",
-              p + "gripper_l_finger_link", (0.155, 0.0, 0.0), axis=(0.0, 1.0, 0.0), lower=0.0,
-              upper=FINGER_MAX),
-        Joint(p + "gripper_r_finger_joint", "prismatic", p + "gripper_palm_link",
-              p + "gripper_r_finger_link", (0.155, 0.0, 0.0), axis=(0.0, -1.0, 0.0), lower=0.0,
-              upper=FINGER_MAX),
-        Joint(p + "gripper_tool_joint", "fixed", p + "gripper_palm_link",
-              p + "gripper_tool_frame", (TOOL_X, 0.0, 0.0)),
+        Joint(
+            p + "gripper_l_finger_joint",
+            "prismatic",
+            p + "gripper_palm_link",
+            p + "gripper_l_finger_link",
+            (0.155, 0.0, 0.0),
+            axis=(0.0, 1.0, 0.0),
+            lower=0.0,
+            upper=FINGER_MAX,
+        ),
+        Joint(
+            p + "gripper_r_finger_joint",
+            "prismatic",
+            p + "gripper_palm_link",
+            p + "gripper_r_finger_link",
+            (0.155, 0.0, 0.0),
+            axis=(0.0, -1.0, 0.0),
+            lower=0.0,
+            upper=FINGER_MAX,
+        ),
+        Joint(
+            p + "gripper_tool_joint",
+            "fixed",
+            p + "gripper_palm_link",
+            p + "gripper_tool_frame",
+            (TOOL_X, 0.0, 0.0),
+        ),
     ]
     return links, joints
 
@@ -234,8 +311,7 @@ def robot_urdf() -> str:
     """The PR2-like robot."""
     links = [
         Link("base_footprint", (), 0.1),
-        Link("base_link", (_box((0.65, 0.65, 0.30), (0.0, 0.0, 0.17 - BASE_LINK_Z)),), 50.0,
-             _DARK),
+        Link("base_link", (_box((0.65, 0.65, 0.30), (0.0, 0.0, 0.17 - BASE_LINK_Z)),), 50.0, _DARK),
         Link("torso_lift_link", (_box((0.25, 0.26, 0.75), (0.0, 0.0, -0.075)),), 10.0, _GREY),
         Link("head_pan_link", (), 0.5),
         Link("head_tilt_link", (_box((0.12, 0.26, 0.10), (-0.05, 0.0, 0.07)),), 1.0, _DARK),
@@ -243,18 +319,51 @@ def robot_urdf() -> str:
         Link("head_mount_kinect_rgb_optical_frame", (), 0.01),
     ]
     joints = [
-        Joint("base_footprint_joint", "fixed", "base_footprint", "base_link",
-              (0.0, 0.0, BASE_LINK_Z)),
-        Joint("torso_lift_joint", "prismatic", "base_link", "torso_lift_link", TORSO_XYZ,
-              lower=0.0, upper=0.33),
-        Joint("head_pan_joint", "revolute", "torso_lift_link", "head_pan_link", HEAD_PAN_XYZ,
-              lower=-2.857, upper=2.857),
-        Joint("head_tilt_joint", "revolute", "head_pan_link", "head_tilt_link", HEAD_TILT_XYZ,
-              axis=(0.0, 1.0, 0.0), lower=-0.471, upper=1.396),
-        Joint("head_mount_kinect_rgb_joint", "fixed", "head_tilt_link",
-              "head_mount_kinect_rgb_link", CAMERA_XYZ),
-        Joint("head_mount_kinect_rgb_optical_frame_joint", "fixed", "head_mount_kinect_rgb_link",
-              "head_mount_kinect_rgb_optical_frame", rpy=OPTICAL_RPY),
+        Joint(
+            "base_footprint_joint", "fixed", "base_footprint", "base_link", (0.0, 0.0, BASE_LINK_Z)
+        ),
+        Joint(
+            "torso_lift_joint",
+            "prismatic",
+            "base_link",
+            "torso_lift_link",
+            TORSO_XYZ,
+            lower=0.0,
+            upper=0.33,
+        ),
+        Joint(
+            "head_pan_joint",
+            "revolute",
+            "torso_lift_link",
+            "head_pan_link",
+            HEAD_PAN_XYZ,
+            lower=-2.857,
+            upper=2.857,
+        ),
+        Joint(
+            "head_tilt_joint",
+            "revolute",
+            "head_pan_link",
+            "head_tilt_link",
+            HEAD_TILT_XYZ,
+            axis=(0.0, 1.0, 0.0),
+            lower=-0.471,
+            upper=1.396,
+        ),
+        Joint(
+            "head_mount_kinect_rgb_joint",
+            "fixed",
+            "head_tilt_link",
+            "head_mount_kinect_rgb_link",
+            CAMERA_XYZ,
+        ),
+        Joint(
+            "head_mount_kinect_rgb_optical_frame_joint",
+            "fixed",
+            "head_mount_kinect_rgb_link",
+            "head_mount_kinect_rgb_optical_frame",
+            rpy=OPTICAL_RPY,
+        ),
     ]
     for side in ("l", "r"):
         arm_links, arm_joints = _arm(side)
@@ -363,8 +472,18 @@ def kitchen_urdf() -> str:
         po = origins.get(parent, (0.0, 0.0, 0.0))
         rel = (round(o[0] - po[0], 6), round(o[1] - po[1], 6), round(o[2] - po[2], 6))
         if name == DRAWER_LINK:
-            joints.append(Joint(DRAWER_JOINT, "prismatic", parent, name, rel,
-                                axis=(-1.0, 0.0, 0.0), lower=0.0, upper=DRAWER_TRAVEL))
+            joints.append(
+                Joint(
+                    DRAWER_JOINT,
+                    "prismatic",
+                    parent,
+                    name,
+                    rel,
+                    axis=(-1.0, 0.0, 0.0),
+                    lower=0.0,
+                    upper=DRAWER_TRAVEL,
+                )
+            )
         else:
             joints.append(Joint(f"{name}_joint", "fixed", parent, name, rel))
     return _urdf("kitchen", links, joints)

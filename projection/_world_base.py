@@ -57,7 +57,6 @@ class SpawnOverlap(ValueError):
         self.overlaps = overlaps
 
 
-
 @dataclass
 class _Obj:
     type: str
@@ -120,18 +119,26 @@ class WorldBase:
         self._link_names = {v: k for k, v in self._links.items()}
         # invariant: the room, the xy hull of the kitchen's links (walls included); the
         # robot's base never leaves it (``drive`` refuses goals outside)
-        boxes = [pb.getAABB(self._kitchen, i, physicsClientId=c)
-                 for i in range(-1, pb.getNumJoints(self._kitchen, physicsClientId=c))]
-        self._room = (min(lo[0] for lo, _ in boxes), min(lo[1] for lo, _ in boxes),
-                      max(hi[0] for _, hi in boxes), max(hi[1] for _, hi in boxes))
+        boxes = [
+            pb.getAABB(self._kitchen, i, physicsClientId=c)
+            for i in range(-1, pb.getNumJoints(self._kitchen, physicsClientId=c))
+        ]
+        self._room = (
+            min(lo[0] for lo, _ in boxes),
+            min(lo[1] for lo, _ in boxes),
+            max(hi[0] for _, hi in boxes),
+            max(hi[1] for _, hi in boxes),
+        )
         self._dofs = sorted(self._limits)  # movable robot joints, IK order
         self._arm_joints = {
             arm: [self._robot_joints[f"{p}_{j}"] for j in knowledge.ARM_JOINTS]
             for arm, p in ARM_PREFIX.items()
         }
         self._fingers = {
-            arm: [self._robot_joints[f"{p}_gripper_l_finger_joint"],
-                  self._robot_joints[f"{p}_gripper_r_finger_joint"]]
+            arm: [
+                self._robot_joints[f"{p}_gripper_l_finger_joint"],
+                self._robot_joints[f"{p}_gripper_r_finger_joint"],
+            ]
             for arm, p in ARM_PREFIX.items()
         }
         self._tool = {
@@ -141,8 +148,11 @@ class WorldBase:
             arm: self._links[f"{p}_shoulder_lift_link"][1] for arm, p in ARM_PREFIX.items()
         }
         self._gripper_links = {
-            arm: [i for n, (b, i) in self._links.items()
-                  if b == self._robot and n.startswith(f"{p}_gripper")]
+            arm: [
+                i
+                for n, (b, i) in self._links.items()
+                if b == self._robot and n.startswith(f"{p}_gripper")
+            ]
             for arm, p in ARM_PREFIX.items()
         }
         self._torso = self._robot_joints["torso_lift_joint"]
@@ -321,13 +331,19 @@ class WorldBase:
         """A robot or kitchen joint's position; unknown -> LookupError."""
         self._check()
         if joint in self._robot_joints:
-            return float(pb.getJointState(self._robot, self._robot_joints[joint],
-                                          physicsClientId=self._c)[0])
+            return float(
+                pb.getJointState(self._robot, self._robot_joints[joint], physicsClientId=self._c)[0]
+            )
         if joint in self._kitchen_joints:
-            return float(pb.getJointState(self._kitchen, self._kitchen_joints[joint],
-                                          physicsClientId=self._c)[0])
+            return float(
+                pb.getJointState(
+                    self._kitchen, self._kitchen_joints[joint], physicsClientId=self._c
+                )[0]
+            )
         raise UnknownName(
-            "joint", joint, lambda: [*self._robot_joints, *self._kitchen_joints],
+            "joint",
+            joint,
+            lambda: [*self._robot_joints, *self._kitchen_joints],
             style="close-matches",
         )
 
@@ -353,9 +369,7 @@ class WorldBase:
         return float(sum(self._get_joints(self._fingers[self._arm(arm)])))
 
     # ------------------------------------------------------------------ registry
-    def spawn_object(
-        self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False
-    ) -> str:
+    def spawn_object(self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False) -> str:
         """Add an object of a known type at ``pose`` (map or base_footprint), at rest.
         Duplicate name -> ValueError; unknown type -> LookupError naming the known ones;
         NaN pose -> ValueError; reaching more than :data:`SPAWN_OVERLAP` into another
@@ -364,8 +378,9 @@ class WorldBase:
         unchanged on error."""
         c = self._check()
         if not isinstance(name, str) or not name or name in (ROBOT, KITCHEN):
-            raise ValueError(f"object name must be a non-empty string other than pr2/kitchen, "
-                             f"got {name!r}")
+            raise ValueError(
+                f"object name must be a non-empty string other than pr2/kitchen, got {name!r}"
+            )
         if name in self._objects:
             raise ValueError(f"an object called {name!r} already exists")
         otype = object_type(type)
@@ -442,8 +457,9 @@ class WorldBase:
         c = self._check()
         obj = self._obj(name)
         if name not in self._attached:
-            raise ValueError(f"object {name!r} is not attached; attached: "
-                             f"{', '.join(self._attached) or 'none'}")
+            raise ValueError(
+                f"object {name!r} is not attached; attached: {', '.join(self._attached) or 'none'}"
+            )
         if settle_steps < 0:
             raise ValueError(f"settle_steps must be >= 0, got {settle_steps}")
         del self._attached[name]
@@ -500,8 +516,9 @@ class WorldBase:
         )
         return tuple([s[0] for s in states])  # PyBullet gives Python floats
 
-    def _set_joints(self, indices: Sequence[int], values: Sequence[float],
-                    body: int | None = None) -> None:
+    def _set_joints(
+        self, indices: Sequence[int], values: Sequence[float], body: int | None = None
+    ) -> None:
         b = self._robot if body is None else body
         for i, v in zip(indices, values):
             pb.resetJointState(b, i, v, 0.0, physicsClientId=self._c)

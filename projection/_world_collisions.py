@@ -37,8 +37,11 @@ class Collisions(WorldBase):
         c = self._check()
         body = self.body_of(name)
         pb.performCollisionDetection(physicsClientId=c)
-        return [self._contact(q) for q in pb.getContactPoints(bodyA=body, physicsClientId=c)
-                if q[8] < -tolerance]
+        return [
+            self._contact(q)
+            for q in pb.getContactPoints(bodyA=body, physicsClientId=c)
+            if q[8] < -tolerance
+        ]
 
     def _contact(self, q: Sequence[Any]) -> Contact:
         def lname(body: int, index: int) -> str:
@@ -49,8 +52,7 @@ class Collisions(WorldBase):
         def bname(body: int) -> str:
             return "floor" if body == self._floor else self._bodies.get(body, str(body))
 
-        return Contact(bname(q[1]), lname(q[1], q[3]), bname(q[2]), lname(q[2], q[4]),
-                       float(q[8]))
+        return Contact(bname(q[1]), lname(q[1], q[3]), bname(q[2]), lname(q[2], q[4]), float(q[8]))
 
     def robot_collisions(self, ignore: Iterable[str] = ()) -> list[Contact]:
         """Collisions of the robot, and of objects attached to robot links, with anything
@@ -68,10 +70,16 @@ class Collisions(WorldBase):
     def _collisions(self, ignore: set[str], first_only: bool) -> list[Contact]:
         c = self._c
         robot = self._robot
-        carried = {self._objects[n].body for n, (link, _) in self._attached.items()
-                   if self._links[link][0] == robot}
-        skip = carried | {robot} | {self.body_of(n) for n in ignore if n in self._objects or
-                                    n == KITCHEN}
+        carried = {
+            self._objects[n].body
+            for n, (link, _) in self._attached.items()
+            if self._links[link][0] == robot
+        }
+        skip = (
+            carried
+            | {robot}
+            | {self.body_of(n) for n in ignore if n in self._objects or n == KITCHEN}
+        )
         out: list[Contact] = []
         tol = -COLLISION_TOLERANCE
         for q in pb.getContactPoints(bodyA=robot, physicsClientId=c):

@@ -28,8 +28,10 @@ class Grippers(WorldBase):
         arms = self._arms(arm)
         if isinstance(action, str):
             if action not in ("open", "close", "grip"):
-                raise ValueError(f"unknown gripper action {action!r}; known: open, close, grip, "
-                                 "or an opening in metres")
+                raise ValueError(
+                    f"unknown gripper action {action!r}; known: open, close, grip, "
+                    "or an opening in metres"
+                )
         else:
             (opening,) = _finite([action], "gripper opening")
             if not -1e-4 <= opening <= 2 * _urdf.FINGER_MAX + 1e-4:
@@ -54,8 +56,7 @@ class Grippers(WorldBase):
         c = self._c
         for obj in self._objects.values():
             for li in self._gripper_links[arm]:
-                if pb.getClosestPoints(self._robot, obj.body, distance, li, -1,
-                                       physicsClientId=c):
+                if pb.getClosestPoints(self._robot, obj.body, distance, li, -1, physicsClientId=c):
                     return True
         return False
 
@@ -70,6 +71,5 @@ class Grippers(WorldBase):
             self._set_joints(fingers, [q, q])
             for obj in self._objects.values():
                 for li in finger_links:
-                    if pb.getClosestPoints(self._robot, obj.body, 5e-4, li, -1,
-                                           physicsClientId=c):
+                    if pb.getClosestPoints(self._robot, obj.body, 5e-4, li, -1, physicsClientId=c):
                         return

@@ -59,8 +59,9 @@ class ArmIK(WorldBase):
 
     def _init_ik(self) -> None:
         """IK damping, seeds, memo and reach geometry (called once by ``World``)."""
-        self._arm_slots = {arm: [self._dofs.index(i) for i in idx]
-                           for arm, idx in self._arm_joints.items()}
+        self._arm_slots = {
+            arm: [self._dofs.index(i) for i in idx] for arm, idx in self._arm_joints.items()
+        }
         self._ik_damping: dict[str, list[float]] = {}
         for arm, slots in self._arm_slots.items():
             damping = [1e3] * len(self._dofs)
@@ -115,8 +116,9 @@ class ArmIK(WorldBase):
         check (as CRAM HEAD). Unreachable -> :class:`ManipulationPoseUnreachable`, robot
         unchanged. IK results are memoised per world (see :meth:`_solve_arm_cached`)."""
         self._check()
-        goals = {arm: self._to_map(p) for arm, p in (("left", left), ("right", right))
-                 if p is not None}
+        goals = {
+            arm: self._to_map(p) for arm, p in (("left", left), ("right", right)) if p is not None
+        }
         if not goals:
             return
         saved = self._get_joints(self._dofs)
@@ -187,9 +189,15 @@ class ArmIK(WorldBase):
         far2 = (rxy + r) ** 2 + dz * dz
         return near2 <= self._reach_max2 and far2 >= self._reach_min2
 
-    def _solve_arm_cached(self, arm: str, pos: Sequence[float], orn: Sequence[float],
-                          local: _Tf, height: float, saved: Sequence[float]
-                          ) -> tuple[float, ...] | None:
+    def _solve_arm_cached(
+        self,
+        arm: str,
+        pos: Sequence[float],
+        orn: Sequence[float],
+        local: _Tf,
+        height: float,
+        saved: Sequence[float],
+    ) -> tuple[float, ...] | None:
         """:meth:`_solve_arm` memoised per world (LRU, :attr:`ik_cache_size` entries).
 
         The key is the arm, the goal in ``torso_lift_link`` (base_footprint goal shifted by
@@ -209,9 +217,13 @@ class ArmIK(WorldBase):
             q = (-q[0], -q[1], -q[2], -q[3])
         key = (
             arm,
-            round((x - self._torso_xy[0]) * 1e4), round((y - self._torso_xy[1]) * 1e4),
+            round((x - self._torso_xy[0]) * 1e4),
+            round((y - self._torso_xy[1]) * 1e4),
             round((z - self._torso_z0 - height) * 1e4),
-            round(q[0] * 1e4), round(q[1] * 1e4), round(q[2] * 1e4), round(q[3] * 1e4),
+            round(q[0] * 1e4),
+            round(q[1] * 1e4),
+            round(q[2] * 1e4),
+            round(q[3] * 1e4),
             *(round(saved[k] * 1e4) for k in slots),
         )
         cache = self._ik_cache
@@ -232,17 +244,19 @@ class ArmIK(WorldBase):
             cache.popitem(last=False)
         return sol
 
-    def _verify(self, arm: str, q: Sequence[float], pos: Sequence[float],
-                orn: Sequence[float]) -> bool:
+    def _verify(
+        self, arm: str, q: Sequence[float], pos: Sequence[float], orn: Sequence[float]
+    ) -> bool:
         """Set the arm to ``q`` and check the tool frame by FK (< 1 cm, < 0.1 rad)."""
         self._set_joints(self._arm_joints[arm], q)
-        s = pb.getLinkState(self._robot, self._tool[arm], computeForwardKinematics=1,
-                            physicsClientId=self._c)
+        s = pb.getLinkState(
+            self._robot, self._tool[arm], computeForwardKinematics=1, physicsClientId=self._c
+        )
         return math.dist(s[4], pos) < 0.01 and _angle(s[5], orn) < 0.1
 
-    def _seed_order(self, arm: str, pos: Sequence[float], start: tuple[float, ...]) -> list[
-        tuple[float, ...]
-    ]:
+    def _seed_order(
+        self, arm: str, pos: Sequence[float], start: tuple[float, ...]
+    ) -> list[tuple[float, ...]]:
         """IK seeds for a goal at ``pos`` (map), nearest first: the arm's current joints
         and the seed library, ordered by how far each one's tool frame (in the torso frame,
         so independent of base pose and torso height) is from the goal. A nearby start
@@ -264,8 +278,10 @@ class ArmIK(WorldBase):
         here = self._in_torso(self._link_tf(self._robot, tool)[0], torso)
         ranked = sorted(
             [(math.dist(here, goal), -1, start)]
-            + [(math.dist(t, goal), i, s) for i, (t, s) in enumerate(
-                zip(library, self._ik_seeds[arm]))],
+            + [
+                (math.dist(t, goal), i, s)
+                for i, (t, s) in enumerate(zip(library, self._ik_seeds[arm]))
+            ],
             key=lambda e: (e[0], e[1]),
         )
         return [seed for _, _, seed in ranked]
@@ -280,8 +296,9 @@ class ArmIK(WorldBase):
         """Forget every memoised IK result of this world (see :meth:`move_tcp`)."""
         self._ik_cache.clear()
 
-    def _solve_arm(self, arm: str, pos: Sequence[float], orn: Sequence[float],
-                   saved: Sequence[float]) -> tuple[float, ...] | None:
+    def _solve_arm(
+        self, arm: str, pos: Sequence[float], orn: Sequence[float], saved: Sequence[float]
+    ) -> tuple[float, ...] | None:
         """IK for one arm at the current torso; the arm is left at the solution or at its
         saved values when there is none."""
         c = self._c
@@ -296,8 +313,14 @@ class ArmIK(WorldBase):
         for seed in seeds:
             self._set_joints(indices, seed)
             sol = pb.calculateInverseKinematics(
-                robot, tool, pos, orn, jointDamping=damping, maxNumIterations=100,
-                residualThreshold=1e-4, physicsClientId=c,
+                robot,
+                tool,
+                pos,
+                orn,
+                jointDamping=damping,
+                maxNumIterations=100,
+                residualThreshold=1e-4,
+                physicsClientId=c,
             )
             q = tuple(_into_limits(sol[k], lo, hi) for k, (lo, hi) in zip(slots, limits))
             if self._verify(arm, q, pos, orn):

@@ -40,8 +40,10 @@ class BodyMotions(Collisions):
         prev = self._base
         carried = []
         if self._attached:
-            carried = [(b, pb.getBasePositionAndOrientation(b, physicsClientId=c))
-                       for b in (self._objects[n].body for n in self._attached)]
+            carried = [
+                (b, pb.getBasePositionAndOrientation(b, physicsClientId=c))
+                for b in (self._objects[n].body for n in self._attached)
+            ]
         self._reset_base(pos[0], pos[1], _quat_yaw(orn))
         if carried:
             self._update_attached(self._robot)
@@ -61,14 +63,13 @@ class BodyMotions(Collisions):
         lo, hi = self._limits[self._torso]
         clamped = min(max(h, lo), hi)
         if abs(clamped - h) > 1e-4:
-            raise TorsoGoalNotReached(
-                f"torso height {h:.4f} outside [{lo}, {hi}]", torso=height
-            )
+            raise TorsoGoalNotReached(f"torso height {h:.4f} outside [{lo}, {hi}]", torso=height)
         self._set_joints([self._torso], [clamped])
         self._update_attached(self._robot)
 
-    def move_joints(self, left: Sequence[float] | None = None,
-                    right: Sequence[float] | None = None) -> None:
+    def move_joints(
+        self, left: Sequence[float] | None = None, right: Sequence[float] | None = None
+    ) -> None:
         """Set the 7 arm joints of the given sides. Wrong length, non-finite values or
         values outside the joint limits -> ValueError naming them; world unchanged."""
         self._check()
@@ -78,8 +79,10 @@ class BodyMotions(Collisions):
                 continue
             vals = _finite(values, f"{arm} arm joints")
             if len(vals) != 7:
-                raise ValueError(f"{arm} arm needs 7 joint values "
-                                 f"({', '.join(knowledge.ARM_JOINTS)}), got {len(vals)}")
+                raise ValueError(
+                    f"{arm} arm needs 7 joint values "
+                    f"({', '.join(knowledge.ARM_JOINTS)}), got {len(vals)}"
+                )
             indices = self._arm_joints[arm]
             for i, v, jname in zip(indices, vals, knowledge.ARM_JOINTS):
                 lo, hi = self._limits[i]
@@ -90,8 +93,9 @@ class BodyMotions(Collisions):
             self._set_joints(indices, vals)
         self._update_attached(self._robot)
 
-    def set_arm_configuration(self, name: str, arms: str | Sequence[str] = ("left", "right")
-                              ) -> None:
+    def set_arm_configuration(
+        self, name: str, arms: str | Sequence[str] = ("left", "right")
+    ) -> None:
         """Put arms into a named configuration ("park", "carry"); unknown -> LookupError."""
         self._check()
         chosen = self._arms(arms)

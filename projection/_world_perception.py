@@ -97,8 +97,11 @@ class Perception(WorldBase):
         oname = get("name", None) if _takes_default(get) else get("name")
         if otype is None:
             raise ValueError(f"the designator has no type: {designator!r}")
-        cands = [(n, o) for n, o in self._objects.items()
-                 if o.type == otype and (oname is None or n == oname)]
+        cands = [
+            (n, o)
+            for n, o in self._objects.items()
+            if o.type == otype and (oname is None or n == oname)
+        ]
         found: list[PerceivedObject] = []
         if cands:
             cam_p, cam_q = self._link_tf(self._robot, self._camera)
@@ -107,11 +110,11 @@ class Perception(WorldBase):
                     map_tf = pb.getBasePositionAndOrientation(o.body, physicsClientId=c)
                     mpose = Pose(map_tf[0], map_tf[1], "map")
                     bpose = self._express((tuple(map_tf[0]), tuple(map_tf[1])), "base_footprint")
-                    found.append(PerceivedObject(n, o.type, bpose, mpose,
-                                                 bpose.to_transform(n)))
+                    found.append(PerceivedObject(n, o.type, bpose, mpose, bpose.to_transform(n)))
         if not found:
-            raise PerceptionObjectNotFound(f"no visible {otype}" + (f" named {oname}" if oname
-                                           else ""), object=designator)
+            raise PerceptionObjectNotFound(
+                f"no visible {otype}" + (f" named {oname}" if oname else ""), object=designator
+            )
         return found
 
     def visibility(self, name: str) -> float:
@@ -124,8 +127,12 @@ class Perception(WorldBase):
         c = self._c
         lo, hi = (np.asarray(v) for v in pb.getAABB(body, -1, physicsClientId=c))
         f = np.array([0.15, 0.5, 0.85])
-        gx, gy, gz = np.meshgrid(lo[0] + f * (hi[0] - lo[0]), lo[1] + f * (hi[1] - lo[1]),
-                                 lo[2] + f * (hi[2] - lo[2]), indexing="ij")
+        gx, gy, gz = np.meshgrid(
+            lo[0] + f * (hi[0] - lo[0]),
+            lo[1] + f * (hi[1] - lo[1]),
+            lo[2] + f * (hi[2] - lo[2]),
+            indexing="ij",
+        )
         pts = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
         origin = np.asarray(cam_p)
         rel = pts - origin
@@ -138,9 +145,12 @@ class Perception(WorldBase):
         z = local[:, 2]
         tan_y = math.tan(_CAMERA_FOV_Y / 2)
         with np.errstate(divide="ignore", invalid="ignore"):
-            in_view = ((z > _CAMERA_NEAR) & (z < _CAMERA_FAR)
-                       & (np.abs(local[:, 0] / z) <= tan_y * _CAMERA_ASPECT)
-                       & (np.abs(local[:, 1] / z) <= tan_y))
+            in_view = (
+                (z > _CAMERA_NEAR)
+                & (z < _CAMERA_FAR)
+                & (np.abs(local[:, 0] / z) <= tan_y * _CAMERA_ASPECT)
+                & (np.abs(local[:, 1] / z) <= tan_y)
+            )
         starts = np.repeat(origin[None, :], len(pts), axis=0)
         hits = pb.rayTestBatch(starts.tolist(), ends.tolist(), physicsClientId=c)
         total = dist + reach

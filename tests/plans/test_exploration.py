@@ -80,8 +80,15 @@ def _assessment(name: str, route_x: float, **kw: Any) -> RunAssessment:
     a = assess_run(name, outcome, params, None, before, after, "cup-1", retries)
     route = (Pose((0.0, 0.0, 0.0)), Pose((route_x, 0.0, 0.0)))
     return RunAssessment(
-        a.name, a.failure, a.knocked, a.unstable, a.retries, route,
-        route_x + a.retries, params, {},
+        a.name,
+        a.failure,
+        a.knocked,
+        a.unstable,
+        a.retries,
+        route,
+        route_x + a.retries,
+        params,
+        {},
     )
 
 
@@ -157,7 +164,8 @@ def test_measure_fidelity_on_a_finished_task_tree():
     assert fid.predicted == "succeeded" and fid.real == "succeeded" and fid.agrees
     assert fid.pick_base_m == pytest.approx(0.0) and fid.place_base_m == pytest.approx(0.0)
     chosen = next(
-        r.annotations["assessment"] for r in (child(root, n) for n in RUN_NAMES)
+        r.annotations["assessment"]
+        for r in (child(root, n) for n in RUN_NAMES)
         if r.name == fid.chosen
     )
     disagreeing = measure_fidelity(chosen, real_run, None, ValueError("boom"))

@@ -158,8 +158,10 @@ def test_unreachable_leaves_the_robot_unchanged_cold_and_cached(sink: World) -> 
             sink.move_tcp(right=bad)
         assert sink.snapshot() == before
     with pytest.raises(ManipulationPoseUnreachable):  # left fine, right out of reach
-        sink.move_tcp(left=Pose((0.55, 0.2, 1.0), frame="base_footprint"),
-                      right=Pose((0.2, -1.5, 0.3), frame="base_footprint"))
+        sink.move_tcp(
+            left=Pose((0.55, 0.2, 1.0), frame="base_footprint"),
+            right=Pose((0.2, -1.5, 0.3), frame="base_footprint"),
+        )
     assert sink.snapshot() == before
 
 

@@ -327,6 +327,7 @@ def test_next_solution_reuses_the_costmap(world: World) -> None:
 
 def test_next_different_solution(world: World) -> None:
     d = a.location(("side", "left"), on=SINK)
+
     def two() -> tuple[Pose, Pose]:
         nxt = d.next_different_solution(0.2)
         assert nxt is not None
