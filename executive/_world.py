@@ -170,7 +170,9 @@ class SceneSetup(Protocol):
         ...
 
     def spawn_object(self, name: str, type: str, pose: Pose) -> str:
-        """Add an object of a known type at ``pose``; returns its name."""
+        """Add an object of a known type at ``pose``; returns its name. An object that
+        would reach into another object or the robot is refused with ``ValueError`` (the
+        world unchanged)."""
         ...
 
     def remove_object(self, name: str) -> None:

@@ -258,14 +258,33 @@ def _spawn(
         if random:
             location = _spawn_location(object_type)
             sample = _reachable_sample(location, _spawn_filter(world, object_type))
-            yaw = float(rng.uniform(-math.pi, math.pi))
-            pose = Pose(sample.position, yaw_quaternion(yaw))
+            _spawn_at_free_yaw(world, name, object_type, sample, rng)
         else:
-            pose = FIXED_POSES[object_type]
-        world.spawn_object(name, object_type, pose)
+            world.spawn_object(name, object_type, FIXED_POSES[object_type])
         link = kitchen.DEMO_ATTACHMENTS.get(object_type)
         if link is not None:
             world.attach(name, link)
+
+
+#: How many random yaws a spawn tries at its sampled position before giving up.
+SPAWN_YAW_TRIES = 24
+
+
+def _spawn_at_free_yaw(
+    world: SceneSetup, name: str, object_type: str, sample: Pose, rng: np.random.Generator
+) -> None:
+    """Spawn at ``sample``'s position with a random yaw; the sample is collision-free for
+    the object's footprint as sampled, but a turned box may reach into a neighbour, which
+    the world refuses (``ValueError``): then another yaw, up to :data:`SPAWN_YAW_TRIES`
+    (deterministic under the seeded ``rng``); the last refusal propagates."""
+    for attempt in range(SPAWN_YAW_TRIES):
+        yaw = float(rng.uniform(-math.pi, math.pi))
+        try:
+            world.spawn_object(name, object_type, Pose(sample.position, yaw_quaternion(yaw)))
+            return
+        except ValueError:
+            if attempt == SPAWN_YAW_TRIES - 1:
+                raise
 
 
 async def _initialize_or_finalize(configuration: str) -> None:

@@ -135,3 +135,27 @@ def test_table_setting(mrun, seed):
         )
     moves = settled_moves(world, [o.name for o in outcomes.values()])
     assert max(moves.values()) < 0.02, moves
+
+
+@pytest.mark.parametrize("seed", range(1, 7))
+def test_random_scenes_spawn_for_every_seed_without_overlap(seed: int) -> None:
+    """A sampled spawn position whose randomly turned box would reach into a neighbour
+    gets another yaw instead of failing the demo's set-up (the world refuses overlaps)."""
+    import cpl
+    import projection
+    from plans.demo import OBJECTS, spawn_scene
+
+    world = projection.World(seed=seed)
+    try:
+
+        async def main() -> dict[str, Pose]:
+            async with projection.with_projected_robot(world):
+                return spawn_scene(world, OBJECTS, random=True, seed=seed)
+
+        poses = cpl.run(main)
+        assert sorted(poses) == sorted(f"{t}-1" for t in OBJECTS)
+        for name in poses:  # no object reaches into another (the world's own contact test)
+            deep = [c for c in world.contacts(name, tolerance=0.005) if c.body_b in poses]
+            assert deep == [], (name, deep)
+    finally:
+        world.close()
