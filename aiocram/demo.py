@@ -549,9 +549,9 @@ def _print_report(report: DemoReport, console: Any) -> None:
         )
     console.print(
         f"{report.delivered}/{n} objects delivered (true world; the plan claimed "
-        f"{report.claimed}); simulated {report.sim_time_s:.1f} s in "
-        f"{report.wall_time_s:.1f} s wall time"
+        f"{report.claimed})"
     )
+    console.print(f"simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time")
     if report.truth is not None and report.truth.cleanup_intervened:
         console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     if report.cleanup_failures:
