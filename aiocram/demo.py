@@ -548,8 +548,7 @@ def _print_report(report: DemoReport, console: Any) -> None:
             "evaporated and its cleanup ran"
         )
     console.print(
-        f"{report.delivered}/{n} objects delivered (true world; the plan claimed "
-        f"{report.claimed})"
+        f"{report.delivered}/{n} objects delivered (true world; the plan claimed {report.claimed})"
     )
     console.print(f"simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time")
     if report.truth is not None and report.truth.cleanup_intervened:
