@@ -244,7 +244,7 @@ def test_injected_placing_target_is_anchored_in_the_map():
     """A real robot that stopped short of the projected base pose still places the object
     where projection meant it (in the map), not at the same offset from where it stands."""
     from executive import Pose
-    from plans.fetch_deliver import _injected_spot
+    from plans.deliver import _injected_spot
 
     projected_base = Pose.from_xyz_yaw(-0.2, 1.5, 0.0, math.pi)
     target = Pose((0.55, 0.1, 0.85), frame="base_footprint")

@@ -279,7 +279,7 @@ def test_a_base_that_stopped_within_tolerance_of_its_goal_is_there(cup_world):
 # --------------------------------------------------------------- backing off
 def test_backing_off_drives_straight_back_when_the_belief_says_it_is_free(cup_world):
     from executive import Pose
-    from plans.fetch_deliver import back_off
+    from plans.navigation import back_off
 
     robot = make_robot(cup_world)
     robot.run(back_off)
@@ -289,7 +289,7 @@ def test_backing_off_drives_straight_back_when_the_belief_says_it_is_free(cup_wo
 
 def test_no_backing_off_into_something_the_belief_knows(cup_world):
     from executive import Pose
-    from plans.fetch_deliver import back_off
+    from plans.navigation import back_off
 
     robot = make_robot(cup_world)
     cup_world.blocked_poses = [Pose((-0.25, 0.0, 0.0))]
@@ -299,7 +299,7 @@ def test_no_backing_off_into_something_the_belief_knows(cup_world):
 
 def test_a_back_off_that_stops_short_is_ignored(cup_world):
     from executive import NavigationGoalNotReached
-    from plans.fetch_deliver import back_off
+    from plans.navigation import back_off
 
     robot = make_robot(cup_world, navigation={1: NavigationGoalNotReached})
     robot.run(back_off)  # logged, not raised: the arms are parked where the base is

@@ -1,0 +1,264 @@
+"""Delivering the held object, and dropping it at the sink when it cannot be delivered
+(part of CRAM HEAD's ``fetch-and-deliver-plans.lisp``), with CRAM's nested failure
+handling and retry counts:
+
+=================  ==========================================  ============================
+action             retries (HEAD)                              raises when exhausted
+=================  ==========================================  ============================
+delivering         outer 2 targets, 5 relocations, 2 targets   object-undeliverable
+=================  ==========================================  ============================
+
+Deliberate fix: ``deliver``'s outer retry reads the *advanced* target (HEAD read the old).
+Other deliberate differences from CRAM: an injected (projected) placing target is anchored
+in the map through the imagined base pose (:func:`_injected_spot`); the base backs off
+(:func:`plans.navigation.back_off`) after placing; ``drop-at-sink`` puts the object down
+*on* the sink counter, keeping its held yaw, and releases it if it is still in a hand.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    LocationDesignator,
+    LookingHighLevelFailure,
+    ManipulationLowLevelFailure,
+    NavigationGoalInCollision,
+    ObjectDesignator,
+    ObjectUndeliverable,
+    ObjectUnreachable,
+    Pose,
+    SolutionCursor,
+    a,
+    an,
+    current_environment,
+    kitchen,
+    perform,
+    retry_scope,
+    rule,
+)
+
+from ._common import (
+    CountedRetries,
+    ignoring,
+    object_label,
+    to_base,
+    to_map,
+    translating_designator_errors,
+)
+from ._designators import ROBOT, _check_places, _location, _object
+from .checks import (
+    PlacingPoseUnstable,
+    check_placing_collisions,
+    check_placing_pose_stability,
+)
+from .navigation import back_off
+from .pick_place import release_held
+
+__all__ = [
+    "DELIVER_RELOCATION_FAILURES",
+    "DELIVER_TARGET_FAILURES",
+    "SINK_BASE_POSE",
+    "SINK_DROP_CLEARANCE",
+    "SINK_DROP_POSE",
+    "SINK_SURFACE",
+    "deliver",
+    "drop_at_sink",
+]
+
+
+# ---------------------------------------------------------------------------- delivering
+def _injected_spot(
+    place_action: Designator | None, robot_location: LocationDesignator | None
+) -> Pose | None:
+    """The map pose of an injected (projected) place action's target.
+
+    CRAM reuses the projected placing target as it is, a pose in ``base_footprint``
+    computed where the imagined robot stood. Deliberate difference: we anchor it in the
+    map through that imagined base pose (the injected robot location), so that a real
+    robot that stopped elsewhere still puts the object where projection meant it, and its
+    own checks (IK, collisions, stability) judge it from where it really is."""
+    if place_action is None:
+        return None
+    goal = place_action.current().get("target")
+    if goal is None:
+        return None
+    pose = goal.reference() if isinstance(goal, LocationDesignator) else goal
+    if not isinstance(pose, Pose):
+        return None
+    if pose.frame == "map":
+        return pose
+    if robot_location is None:
+        return to_map(pose)
+    base: Pose = robot_location.reference()
+    if base.frame != "map":
+        base = to_map(base)
+    spot: Pose = base.to_transform("base_footprint") * pose
+    return spot
+
+
+@cpl.plan(name="deliver")
+async def deliver(
+    object_designator: ObjectDesignator,
+    target: LocationDesignator,
+    robot_location: LocationDesignator | None = None,
+    place_action: Designator | None = None,
+) -> None:
+    """Deliver the held object to ``target``.
+
+    Outer scope (2 retries over ``target``): on a designator error or
+    ``object-undeliverable`` take the next target sample. Its body builds the robot
+    location (``robot_location``'s newest effective member, or ``reachable-for`` the
+    target pose) and runs the relocation scope (5 retries over the robot location; on
+    ``navigation-goal-in-collision``, ``object-undeliverable`` or
+    ``manipulation-low-level-failure``): navigate, then the target scope (2 retries over
+    ``target``, the robot stays; on ``looking-high-level-failure``, ``object-unreachable``
+    or an unstable placing pose): turn towards the target, check its stability (v0.8.1),
+    build ``placing`` at the target in ``base_footprint``, check it
+    (:func:`check_placing_collisions`) and perform it. Raises ``ObjectUndeliverable``."""
+    targets = SolutionCursor(target)
+    outer = CountedRetries(2, "deliver-targets")
+    object_type = _held_type(object_designator)
+    injected_spot = _injected_spot(place_action, robot_location)
+
+    def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
+        return ObjectUndeliverable(object=object_label(object_designator))
+
+    @retry_scope((DesignatorError, ObjectUndeliverable), targets, outer, rethrow=undeliverable)
+    async def attempt() -> None:
+        target_pose = to_map(targets.current.reference())
+        given = robot_location.newest_effective() if robot_location is not None else None
+        base_poses = SolutionCursor(
+            given
+            if given is not None
+            else a.location(reachable_for=ROBOT, location=a.location(pose=target_pose))
+        )
+
+        @retry_scope(
+            DELIVER_RELOCATION_FAILURES,
+            base_poses,
+            CountedRetries(5, "relocations"),
+            rethrow=undeliverable,
+        )
+        async def from_here() -> None:
+            await perform(an.action(type="navigating", location=base_poses.current))
+
+            @retry_scope(
+                DELIVER_TARGET_FAILURES,
+                targets,
+                CountedRetries(2, "targets"),
+                rethrow=undeliverable,
+            )
+            async def place_at_target() -> None:
+                spot = to_map(targets.current.reference())
+                await perform(an.action(type="turning-towards", target=targets.current))
+                check_placing_pose_stability(object_type, spot)
+                goal = a.location(pose=to_base(spot))
+                if injected_spot is not None:
+                    goal = a.location(pose=to_base(injected_spot))
+                # no explicit pose: a costmap sample, whose identity orientation means
+                # nothing; the placing keeps the held yaw (see plans.pick_place)
+                free_yaw = "pose" not in targets.current
+                placing = an.action(
+                    type="placing", object=object_designator, target=goal, free_yaw=free_yaw
+                )
+                await perform(check_placing_collisions(placing))
+
+            await place_at_target()
+
+        await from_here()
+
+    # CRAM: designator-error -> object-undeliverable (also one raised while advancing a
+    # target that has no solution at all, e.g. an empty costmap)
+    await translating_designator_errors(attempt, undeliverable)
+    await back_off()
+
+
+#: The failures after which ``deliver`` goes to the next base pose.
+DELIVER_RELOCATION_FAILURES = (
+    NavigationGoalInCollision,
+    ObjectUndeliverable,
+    ManipulationLowLevelFailure,
+)
+#: The failures after which ``deliver`` tries the next target from where it stands.
+DELIVER_TARGET_FAILURES = (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable)
+
+
+def _held_type(obj: ObjectDesignator) -> str:
+    otype = obj.current().type
+    if isinstance(otype, str):
+        return otype
+    name = obj.current().get("name")
+    return current_environment().world.object_type(name)
+
+
+@rule("action", "delivering", keys=("object", "target", "robot-location", "place-action"))
+def _delivering(d: Designator) -> Iterator[Any]:
+    _check_places(d, "target", "robot-location")
+    yield (
+        deliver,
+        {
+            "object_designator": _object(d),
+            "target": _location(d, "target"),
+            "robot_location": d.get("robot-location"),
+            "place_action": d.get("place-action"),
+        },
+    )
+
+
+# ------------------------------------------------------------------ dropping at the sink
+#: CRAM's hard-coded drop-at-sink poses: the base in map, the object in base_footprint.
+SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
+SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
+#: The counter the object is put down on at the sink, and the gap (m) left below it.
+SINK_SURFACE = kitchen.SINK_SURFACE
+SINK_DROP_CLEARANCE = 0.01
+
+
+def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
+    """Where ``drop-at-sink`` puts the object, in ``base_footprint`` at
+    :data:`SINK_BASE_POSE`: CRAM's x and y, but (deliberate deviation) the height at which
+    the held object's bottom is :data:`SINK_DROP_CLEARANCE` above the sink counter's top,
+    from the world model's ``link_aabb`` and ``object_aabb`` (CRAM released it 1.2 m above
+    the floor, 0.35 m above our counter: a bowl or cup bounced and rolled off the
+    counter's front edge onto the floor). A world model that knows neither extent
+    (``LookupError``): CRAM's pose."""
+    world = current_environment().world
+    name = object_designator.current().get("name")
+    if not isinstance(name, str):
+        return SINK_DROP_POSE
+    try:
+        top = world.link_aabb(SINK_SURFACE)[1][2]
+        lo, hi = world.object_aabb(name)
+    except LookupError:
+        return SINK_DROP_POSE
+    half = (hi[2] - lo[2]) / 2.0
+    x, y, _z = SINK_DROP_POSE.position
+    return Pose((x, y, top + half + SINK_DROP_CLEARANCE), frame="base_footprint")
+
+
+async def drop_at_sink(object_designator: ObjectDesignator) -> None:
+    """Go to CRAM's fixed pose at the sink and place the object there; every failure is
+    ignored (CRAM's ``drop-at-sink``, quirk 9 kept: hard-coded base pose and x, y).
+    Deliberate deviations: the object is put down *on* the sink counter rather than
+    released 0.35 m above it (:func:`_sink_drop_pose`), keeping the yaw it is held with
+    (``free-yaw``: the drop's orientation means nothing, and the held yaw needs no turn of
+    the wrist); and a shielded cleanup releases the object if it is still in a hand (the
+    placing failed, or the drop was evaporated): open the gripper and ``ObjectDetached``
+    (:func:`plans.pick_place.release_held`), so no object stays attached after it."""
+
+    async def drop() -> None:
+        await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
+        target = a.location(pose=_sink_drop_pose(object_designator))
+        await perform(
+            an.action(type="placing", object=object_designator, target=target, free_yaw=True)
+        )
+
+    try:
+        await ignoring(drop, (cpl.PlanFailure, DesignatorError))
+    finally:
+        await cpl.shielded(release_held(object_designator))

@@ -1,0 +1,202 @@
+"""Navigating, turning towards and backing off (part of CRAM HEAD's
+``fetch-and-deliver-plans.lisp``), with CRAM's nested failure handling and retry counts:
+
+=================  ==========================================  ============================
+action             retries (HEAD)                              raises when exhausted
+=================  ==========================================  ============================
+navigating         30 collision-check samples                  navigation-goal-in-collision
+turning-towards    1 (turn the base, look again)               looking-high-level-failure
+=================  ==========================================  ============================
+
+``back-off`` (a deliberate addition: CRAM has none) retreats the base before the arms are
+parked next to a counter; ``fetch`` and ``deliver`` use it. Deliberate differences from
+CRAM: ``go-without-collisions`` does not ignore the going's failures (it drives again,
+then raises :class:`BaseStoppedShort`), and a ptu failure of the look forward while
+turning towards is ignored.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterator
+from typing import Any
+
+import cpl
+from executive import (
+    Designator,
+    DesignatorError,
+    LocationDesignator,
+    LookingHighLevelFailure,
+    NavigationGoalInCollision,
+    NavigationHighLevelFailure,
+    NavigationLowLevelFailure,
+    Pose,
+    PtuLowLevelFailure,
+    a,
+    an,
+    current_environment,
+    perform,
+    retry_scope,
+    rule,
+)
+
+from ._common import (
+    CountedRetries,
+    perform_ignoring,
+    to_base,
+    to_map,
+    translating_failures,
+)
+from ._designators import _check_places, _location
+from .atomic import park_arms
+from .checks import check_navigating_collisions
+
+__all__ = [
+    "BACK_OFF",
+    "NAVIGATION_RETRIES",
+    "NAVIGATION_TOLERANCE",
+    "BaseStoppedShort",
+    "back_off",
+    "go_without_collisions",
+    "turn_towards",
+]
+
+log = logging.getLogger(__name__)
+
+
+# ---------------------------------------------------------------------------- navigating
+@cpl.plan(name="go-without-collisions")
+async def go_without_collisions(location: LocationDesignator) -> None:
+    """Park the arms (carry), pick a collision-free sample of ``location`` (up to 30,
+    :func:`check_navigating_collisions`), and go there; a navigation low-level failure
+    (the base stopped short: a fault, or a collision on the way) drives again from where
+    it stopped (:data:`NAVIGATION_RETRIES`), unless it stopped within
+    :data:`NAVIGATION_TOLERANCE` of the goal (logged). Raises ``NavigationGoalInCollision``
+    (also for designator errors, and when the goal was never reached).
+
+    Deliberate difference from CRAM, which ignored the going's failures: the plan went on
+    from wherever the base had stopped (e.g. short of the island, where every placing
+    then failed IK), and the caller's relocation scope, which only retries on
+    ``navigation-goal-in-collision``, never tried its next base pose."""
+    await park_arms()
+    checked = check_navigating_collisions(location)
+    goal: Pose = to_map(checked.reference())
+
+    @retry_scope(
+        NavigationLowLevelFailure,
+        None,
+        CountedRetries(NAVIGATION_RETRIES, "navigation"),
+        rethrow=lambda failure: BaseStoppedShort(f"did not get to {checked.short()}: {failure}"),
+    )
+    async def go() -> None:
+        try:
+            await perform(an.action(type="going", target=checked))
+        except NavigationLowLevelFailure as failure:
+            if not _close_enough(goal):
+                raise
+            log.info("the base stopped short but close enough to %r: %s", goal, failure)
+
+    await go()
+
+
+class BaseStoppedShort(NavigationGoalInCollision):
+    """``go-without-collisions`` did not get to its collision-free goal (the base stopped
+    short, even after driving again). A ``navigation-goal-in-collision`` for every retry
+    scope that relocates; ``accessing``/``sealing`` act from where the base stopped."""
+
+
+#: How often ``go-without-collisions`` drives again after the base stopped short.
+NAVIGATION_RETRIES = 1
+#: How near (m, rad) a base that stopped short must be to its goal to count as there.
+NAVIGATION_TOLERANCE = (0.05, 0.1)
+
+
+def _close_enough(goal: Pose) -> bool:
+    robot = current_environment().world.robot_pose()
+    d, angle = NAVIGATION_TOLERANCE
+    return robot.distance_to(goal) <= d and abs(_wrap(robot.yaw - goal.yaw)) <= angle
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+@rule("action", "navigating", keys=("location",))
+def _navigating(d: Designator) -> Iterator[Any]:
+    _check_places(d, "location")
+    yield go_without_collisions, {"location": _location(d, "location")}
+
+
+# ----------------------------------------------------------------------- turning towards
+def _turned_base(target: Pose) -> Pose:
+    """The robot's pose rotated in place to face ``target``."""
+    world = current_environment().world
+    in_base = to_base(target)
+    yaw = math.atan2(in_base.position[1], in_base.position[0])
+    robot = world.robot_pose()
+    return Pose.from_xyz_yaw(robot.position[0], robot.position[1], 0.0, robot.yaw + yaw)
+
+
+@cpl.plan(name="turn-towards")
+async def turn_towards(target: LocationDesignator) -> None:
+    """Look at ``target``; on ``ptu-low-level-failure`` (1 retry) turn the base towards it
+    (``navigating``), look forward and look again. Raises ``LookingHighLevelFailure`` when
+    the retry is used up, and for designator errors and navigation high-level failures."""
+
+    @retry_scope(
+        PtuLowLevelFailure,
+        None,
+        CountedRetries(1, "turns"),
+        before_retry=lambda: _turn_base_towards(target),
+        rethrow=lambda _f: LookingHighLevelFailure(f"cannot look at {target.short()}"),
+    )
+    async def look() -> None:
+        await perform(an.action(type="looking", target=target))
+
+    await translating_failures(
+        (DesignatorError, NavigationHighLevelFailure),
+        look,
+        lambda failure: LookingHighLevelFailure(str(failure)),
+    )
+
+
+async def _turn_base_towards(target: LocationDesignator) -> None:
+    """Turn the base towards ``target`` and look forward (before looking again)."""
+    base = _turned_base(target.current().reference())
+    await perform(an.action(type="navigating", location=a.location(pose=base)))
+    # deliberate: a ptu failure of this look forward is ignored (in CRAM it escaped the
+    # handler as a low-level failure and ended the whole transport); the retry looks at
+    # the target again anyway
+    await perform_ignoring(an.action(type="looking", direction="forward"), PtuLowLevelFailure)
+
+
+@rule("action", "turning-towards", keys=("target",))
+def _turning_towards(d: Designator) -> Iterator[Any]:
+    yield turn_towards, {"target": _location(d, "target")}
+
+
+# --------------------------------------------------------------------------- backing off
+#: How far (m) the base backs off from a counter before the arms are parked.
+BACK_OFF = 0.25
+
+
+@cpl.plan(name="back-off")
+async def back_off(distance: float = BACK_OFF) -> None:
+    """Retreat before parking the arms next to a counter: drive the base ``distance``
+    straight back if the belief's probe says the robot (with what it holds) stands free
+    there; the going's failures are ignored (logged: the arms are parked wherever the
+    base stopped). Deliberate addition: CRAM parked (``carry``) right where it had picked
+    or placed, and the park swept the arm and the held object through the neighbours on
+    the counter (the cereal box toppled off the sink counter, a delivered cup off the
+    island)."""
+    world = current_environment().world
+    goal = to_map(Pose((-distance, 0.0, 0.0), frame="base_footprint"))
+    probe = world.probe_base_pose(goal)
+    if not probe.ok:
+        log.info("no backing off: %s", probe.failure)
+        return
+    try:
+        await perform(an.action(type="going", target=a.location(pose=goal)))
+    except NavigationLowLevelFailure as failure:
+        log.info("backing off stopped short: %s", failure)

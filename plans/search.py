@@ -1,0 +1,125 @@
+"""Searching for an object (part of CRAM HEAD's ``fetch-and-deliver-plans.lisp``), with
+CRAM's nested failure handling and retry counts:
+
+=================  ==========================================  ============================
+action             retries (HEAD)                              raises when exhausted
+=================  ==========================================  ============================
+searching          9 search locations                          object-nowhere-to-be-found
+=================  ==========================================  ============================
+
+Deliberate differences from HEAD: v0.8.1's torso retry (a perception failure is retried
+once from the raised torso), and the arms are parked out of view before looking
+(:func:`arms_out_of_view`; CRAM looked with them in ``carry``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import cpl
+from executive import (
+    Designator,
+    LocationDesignator,
+    LookingHighLevelFailure,
+    NavigationGoalInCollision,
+    ObjectDesignator,
+    ObjectNowhereToBeFound,
+    PerceptionLowLevelFailure,
+    Pose,
+    SolutionCursor,
+    a,
+    an,
+    current_environment,
+    knowledge,
+    perform,
+    retry_scope,
+    rule,
+)
+
+from ._common import (
+    CountedRetries,
+    object_label,
+    translating_designator_errors,
+)
+from ._designators import ROBOT, _check_places, _location, _object
+from .atomic import park_arms
+
+__all__ = ["SEARCH_FAILURES", "SEARCH_TORSO_HEIGHT", "arms_out_of_view", "search_for_object"]
+
+
+# ----------------------------------------------------------------------------- searching
+#: Torso height (m) from which ``searching`` looks a second time (the upper limit: camera
+#: at ~1.6 m).
+SEARCH_TORSO_HEIGHT = 0.33
+
+#: The failures after which ``searching`` tries the next sample of its location.
+SEARCH_FAILURES = (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure)
+
+
+@cpl.plan(name="search-for-object")
+async def search_for_object(
+    object_designator: ObjectDesignator, location: LocationDesignator, retries: int = 9
+) -> ObjectDesignator:
+    """Go where ``location``'s current sample is visible, look at it and detect the
+    object; a perception failure there is retried once from the raised torso (v0.8.1's
+    torso retry: deliberate, HEAD has none); on ``navigation-goal-in-collision``,
+    ``looking-high-level-failure`` or ``perception-low-level-failure`` try the next
+    sample of ``location`` (9 retries).
+    Raises ``ObjectNowhereToBeFound`` when samples or retries run out (and for designator
+    errors). Returns the perceived designator."""
+    spots = SolutionCursor(location)
+
+    def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
+        return ObjectNowhereToBeFound(object=object_label(object_designator))
+
+    @retry_scope(SEARCH_FAILURES, spots, CountedRetries(retries, "search"), rethrow=nowhere)
+    async def look_there() -> ObjectDesignator:
+        spot = spots.current.reference()
+        view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
+        await perform(an.action(type="navigating", location=view))
+        await arms_out_of_view()
+        await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
+
+        # v0.8.1's torso retry: a taller object in front may hide the one sought from the
+        # default camera height; raise the camera and look again.
+        @retry_scope(
+            PerceptionLowLevelFailure,
+            None,
+            CountedRetries(1, "search-torso"),
+            before_retry=lambda: _look_from_higher(spot),
+        )
+        async def detect() -> ObjectDesignator:
+            found: ObjectDesignator = await perform(
+                an.action(type="detecting", object=object_designator)
+            )
+            return found
+
+        return await detect()
+
+    result: ObjectDesignator = await translating_designator_errors(look_there, nowhere)
+    return result
+
+
+async def arms_out_of_view() -> None:
+    """Before looking for an object: both arms to ``park`` (at the sides) if they hold
+    nothing. Deliberate difference from CRAM, which looked with the arms in ``carry``:
+    from the counter the palm in ``carry`` hides objects in the drawer and low on the
+    counter (the spoon's visibility was 0.33 in ``carry`` and 1.0 in ``park`` from the
+    same base pose)."""
+    world = current_environment().world
+    if any(world.object_in_hand(arm) for arm in knowledge.ARMS):
+        return
+    await park_arms("park")
+
+
+async def _look_from_higher(spot: Pose) -> None:
+    """Raise the torso to :data:`SEARCH_TORSO_HEIGHT` and turn towards ``spot`` again."""
+    await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
+    await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
+
+
+@rule("action", "searching", keys=("object", "location"))
+def _searching(d: Designator) -> Iterator[Any]:
+    _check_places(d, "location")
+    yield search_for_object, {"object_designator": _object(d), "location": _location(d, "location")}
