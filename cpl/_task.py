@@ -37,7 +37,7 @@ import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
 from types import CoroutineType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from ._failure_handling import signal_failure
 from ._failures import Evaporated
@@ -357,16 +357,7 @@ class Task:
                 await self._await_constraints()
             if self._suspend_requested:
                 await self._suspend_here()
-            aw = self._aw
-            self._aw = None
-            if type(aw) is not CoroutineType and not inspect.isawaitable(aw):
-                aw = aw()
-                if not inspect.isawaitable(aw):
-                    raise TypeError(
-                        f"task {self.name!r}: the callable returned {type(aw).__name__}, "
-                        "not an awaitable; pass an async function"
-                    )
-            self.result = await aw
+            self.result = await self._take_body()
         except asyncio.CancelledError as exc:
             atask = self._atask
             if self.evaporation is not None:
@@ -395,25 +386,10 @@ class Task:
             self.failure = exc
         finally:
             self._close_aw()
-        if outcome is not _SUCCEEDED:
-            self.result = None
-        # The body has ended: from here on the outcome is decided and evaporate() is a
-        # no-op (there is nothing left to stop but the children, which teardown stops).
-        self._body_done = True
-        if self._children:
-            try:
-                await self._teardown_children()
-            except asyncio.CancelledError as exc:
-                # Our asyncio task was cancelled from outside cpl while the children died
-                # (wait_dead waited through it): finish first, then let it propagate.
-                if reraise is None:
-                    reraise = exc
+        reraise = await self._end_body(outcome, reraise)
         self._finish(outcome)
         if reraise is not None:
-            try:
-                raise reraise
-            finally:
-                del reraise  # no failure -> traceback -> frame -> failure cycle
+            _raise_unreferenced(reraise)
 
     async def _run_inline(self) -> Any:
         """Run this CREATED task's body in the calling asyncio task and join it: its value,
@@ -444,16 +420,7 @@ class Task:
         try:
             if self._suspend_requested:
                 await self._suspend_here()
-            aw = self._aw
-            self._aw = None
-            if not inspect.isawaitable(aw):
-                aw = aw()
-                if not inspect.isawaitable(aw):
-                    raise TypeError(
-                        f"task {self.name!r}: the callable returned {type(aw).__name__}, "
-                        "not an awaitable; pass an async function"
-                    )
-            self.result = await aw
+            self.result = await self._take_body()
         except asyncio.CancelledError as exc:
             if self.evaporation is not None:
                 outcome = _EVAPORATED
@@ -489,6 +456,43 @@ class Task:
             # its own), and the ancestor's evaporation goes on instead of that failure.
             self.evaporation = Evaporated("its parent was evaporated", parent.path)
             reraise = asyncio.CancelledError()
+        reraise = await self._end_body(outcome, reraise)
+        CURRENT_TASK.reset(token)
+        self._inline_parent = None
+        self._finish(outcome)
+        if reraise is not None:
+            _raise_unreferenced(reraise)
+        if parent._state is _SUSPENDED:
+            # The parent was suspended while this child ran in its place: its code must
+            # not go on before it is woken.
+            await parent._wait_resumed()
+        if outcome is _FAILED:
+            assert self.failure is not None
+            signal_failure(self.failure)
+            _raise_unreferenced(self.failure)
+        return self.result
+
+    def _take_body(self) -> Awaitable[Any]:
+        """The body's awaitable (calling a zero-argument async callable); ``TypeError`` if
+        the callable returned something else."""
+        aw = self._aw
+        self._aw = None
+        if type(aw) is CoroutineType or inspect.isawaitable(aw):
+            return aw
+        aw = aw()
+        if not inspect.isawaitable(aw):
+            raise TypeError(
+                f"task {self.name!r}: the callable returned {type(aw).__name__}, "
+                "not an awaitable; pass an async function"
+            )
+        return aw
+
+    async def _end_body(self, outcome: Status, reraise: BaseException | None) -> Any:
+        """The body has ended with ``outcome``: from here on the outcome is decided and
+        evaporate() is a no-op (nothing is left to stop but the children, which this
+        tears down). A cancellation of the asyncio task from outside cpl while the
+        children die (wait_dead waits through it) is returned to be re-raised after the
+        finish; otherwise ``reraise``."""
         if outcome is not _SUCCEEDED:
             self.result = None
         self._body_done = True
@@ -498,29 +502,7 @@ class Task:
             except asyncio.CancelledError as exc:
                 if reraise is None:
                     reraise = exc
-        CURRENT_TASK.reset(token)
-        self._inline_parent = None
-        self._finish(outcome)
-        if reraise is not None:
-            try:
-                raise reraise
-            finally:
-                del reraise  # no failure -> traceback -> frame -> failure cycle
-        if parent._state is _SUSPENDED:
-            # The parent was suspended while this child ran in its place: its code must
-            # not go on before it is woken.
-            await parent._wait_resumed()
-        if outcome is _FAILED:
-            failure = self.failure
-            assert failure is not None
-            signal_failure(failure)
-            try:
-                raise failure
-            finally:
-                # No local of this frame may hold the failure: failure -> traceback ->
-                # frame -> failure would be a cycle only a full collection frees.
-                del failure
-        return self.result
+        return reraise
 
     def _close_aw(self) -> None:
         aw = self._aw
@@ -764,6 +746,15 @@ async def wait_dead(tasks: list[Task]) -> None:
                     t._drop_waiter(fut)
     finally:
         deferred.close()
+
+
+def _raise_unreferenced(exc: BaseException) -> NoReturn:
+    """Raise ``exc`` without leaving it in the raising frame's locals: failure ->
+    traceback -> frame -> failure would be a cycle only a full collection frees."""
+    try:
+        raise exc
+    finally:
+        del exc
 
 
 def current_task() -> Task | None:
