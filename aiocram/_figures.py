@@ -81,27 +81,10 @@ class CameraRecorder(cpl.Instrument):
     def _shoot(
         self, names: list[str]
     ) -> tuple[np.ndarray, list[tuple[str, tuple[float, float, float, float]]]]:
-        import pybullet as pb
-
         from projection import render
 
         width, height = _VIEW_SIZE
-        eye, target, up, fov = render._view(self.world, "robot")
-        client = self.world.client
-        view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
-        proj = pb.computeProjectionMatrixFOV(fov, width / height, 0.1, 20.0, physicsClientId=client)
-        _, _, rgba, _, _ = pb.getCameraImage(
-            width,
-            height,
-            view,
-            proj,
-            renderer=pb.ER_TINY_RENDERER,
-            shadow=0,
-            lightDirection=(-1.0, -0.5, 2.0),
-            flags=pb.ER_NO_SEGMENTATION_MASK,
-            physicsClientId=client,
-        )
-        pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        pixels, view, proj = render.camera_image(self.world, "robot", width, height)
         m = _matrix(proj) @ _matrix(view)
         boxes = []
         for name in names:

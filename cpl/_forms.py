@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+from abc import ABC, abstractmethod
 from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
 from types import CoroutineType
 from typing import Any
@@ -200,7 +201,7 @@ async def try_each_in_order(values: Iterable[Any], fn: Callable[[Any], Awaitable
 
 
 # ------------------------------------------------------------------ parallel forms
-class ParallelPolicy:
+class ParallelPolicy(ABC):
     """How a parallel form decides from its branches' ends (CRAM's watcher body), as a
     small object in the manner of py_trees' ``ParallelPolicy``.
 
@@ -216,8 +217,9 @@ class ParallelPolicy:
         self.kind = kind  # the form node's kind in the task tree
         self.loser_reason = loser_reason  # why the branches still alive are evaporated
 
+    @abstractmethod
     def decide(self, sup: _Supervisor, task: Task) -> bool:
-        raise NotImplementedError
+        """Record the outcome if ``task``'s end decides the form; whether it did."""
 
 
 class AllSucceed(ParallelPolicy):

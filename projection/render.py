@@ -17,7 +17,7 @@ from PIL import Image
 if TYPE_CHECKING:
     from projection._world import World
 
-__all__ = ["OVERVIEW_CAMERA", "scene"]
+__all__ = ["OVERVIEW_CAMERA", "camera_image", "scene"]
 
 #: The default camera ``(eye, target)`` in ``map``: the kitchen from above-behind the robot's
 #: start pose, looking at the counter.
@@ -85,32 +85,15 @@ def scene(
     ``fov``: vertical field of view in degrees (default 60, or 50 for the robot). The
     world is not changed. Bad sizes or cameras raise TypeError/ValueError; a closed world
     RuntimeError."""
-    import pybullet as pb
-
     for what, value in (("width", width), ("height", height)):
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{what} must be an int, got {value!r}")
         if not 1 <= value <= 4096:
             raise ValueError(f"{what} must be in 1..4096, got {value}")
-    client = world.client
-    eye, target, up, default_fov = _view(world, camera)
-    fov_y = default_fov if fov is None else float(fov)
+    fov_y = _view(world, camera)[3] if fov is None else float(fov)
     if not 1.0 <= fov_y <= 170.0:
         raise ValueError(f"fov must be in 1..170 degrees, got {fov}")
-    view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
-    proj = pb.computeProjectionMatrixFOV(fov_y, width / height, _NEAR, _FAR, physicsClientId=client)
-    _, _, rgba, _, _ = pb.getCameraImage(
-        width,
-        height,
-        view,
-        proj,
-        renderer=pb.ER_TINY_RENDERER,
-        shadow=0,
-        lightDirection=(-1.0, -0.5, 2.0),
-        flags=pb.ER_NO_SEGMENTATION_MASK,
-        physicsClientId=client,
-    )
-    pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    pixels, _view_matrix, _proj_matrix = camera_image(world, camera, width, height, fov_y)
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(pixels, "RGB").save(out, format="PNG")
@@ -217,3 +200,31 @@ def costmap(
     out = Path(path)
     img.save(out, format="PNG")
     return out
+
+
+def camera_image(
+    world: World, camera: Camera, width: int, height: int, fov: float | None = None
+) -> tuple[np.ndarray, tuple[float, ...], tuple[float, ...]]:
+    """Render ``world`` from ``camera`` (as :func:`scene`; sizes and fov unchecked): the RGB
+    pixels (height x width x 3, a copy) and PyBullet's view and projection matrices, for
+    callers that draw onto the picture. The world is not changed."""
+    import pybullet as pb
+
+    client = world.client
+    eye, target, up, default_fov = _view(world, camera)
+    fov_y = default_fov if fov is None else float(fov)
+    view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
+    proj = pb.computeProjectionMatrixFOV(fov_y, width / height, _NEAR, _FAR, physicsClientId=client)
+    _, _, rgba, _, _ = pb.getCameraImage(
+        width,
+        height,
+        view,
+        proj,
+        renderer=pb.ER_TINY_RENDERER,
+        shadow=0,
+        lightDirection=(-1.0, -0.5, 2.0),
+        flags=pb.ER_NO_SEGMENTATION_MASK,
+        physicsClientId=client,
+    )
+    pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+    return pixels, tuple(view), tuple(proj)
