@@ -676,12 +676,32 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
         return value
     task = CURRENT_TASK.get()
     if task is not None:
-        task.waiting_on = f"waiting for {fluent.name}"
+        task._waiting = fluent  # described as "waiting for <name>" when shown
     try:
         while True:
             fut = fluent._waiter()
             try:
-                woken = await block_until(fut, deadline)
+                if deadline is None and (task is None or not task._suspend_requested):
+                    # block_until's common case, inlined: a waiting task then holds one
+                    # coroutine frame less (~250 B). Same semantics as block_until.
+                    if task is not None:
+                        task._blocked_on = fut
+                    try:
+                        await fut
+                    except asyncio.CancelledError:
+                        if (
+                            task is not None
+                            and task.evaporation is not None
+                            and asyncio.current_task() is task._atask
+                        ):
+                            raise task.evaporation from None
+                        raise
+                    finally:
+                        if task is not None:
+                            task._blocked_on = None
+                    woken = True
+                else:
+                    woken = await block_until(fut, deadline)
             finally:
                 fluent._remove_waiter(fut)
             if not woken and not fut.done():

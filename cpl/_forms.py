@@ -337,7 +337,7 @@ async def _parallel(policy: ParallelPolicy, branches: Sequence[Branch]) -> Any:
         raise
     sup = _Supervisor(policy, tasks)
     for t in tasks:
-        t._on_finish = sup.finished
+        t._supervisor = sup
     owner._push_form(node)
     loop = asyncio.get_running_loop()
     outcome = Status.SUCCEEDED
