@@ -813,9 +813,18 @@ class _Driver:
 
     def throw(self, exc: Any, *args: Any) -> Any:
         coro = self._coro
-        if coro is None:  # thrown in before the first step: as into an unstarted _main
-            coro = self._coro = self._task._main()
-            self._forward = True
+        if coro is None:
+            # Thrown in before the first step (the asyncio task was cancelled from outside
+            # before it ran): the body never starts, and the task ends as if it had raised
+            # ``exc`` at once (a cancellation from outside: EVAPORATED, then re-raised).
+            task = self._task
+            CURRENT_TASK.set(task)
+            task.start_time = asyncio.get_running_loop().time()
+            task._set_state(_RUNNING)
+            task._close_aw()
+            if args:  # the old (type, value, traceback) form
+                exc = args[0] if isinstance(args[0], BaseException) else exc(*args[:1])
+            return self._body_ended(exc)
         if self._forward:
             return coro.throw(exc, *args)
         try:
