@@ -699,19 +699,16 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
                     finally:
                         if task is not None:
                             task._blocked_on = None
-                    woken = True
-                else:
-                    woken = await block_until(fut, deadline)
+                elif not await block_until(fut, deadline) and not fut.done():
+                    return None  # the deadline passed
             finally:
                 fluent._remove_waiter(fut)
-            if not woken and not fut.done():
-                return None
             # Woken, or the deadline's timer resolved ``fut``: (one last) check.
             value = fluent.value
             if value:
                 return value
-            if not woken:
-                return None
+            if deadline is not None and asyncio.get_running_loop().time() >= deadline:
+                return None  # block_until said the deadline passed (no local: a smaller frame)
     finally:
         if task is not None:
             task.waiting_on = None

@@ -471,10 +471,11 @@ async def partial_order(
             _close(s)
         raise
     for a, b in pairs:
-        if b._constraints is None:
-            b._constraints = [a]
+        extras = b._more()
+        if extras.constraints is None:
+            extras.constraints = [a]
         else:
-            b._constraints.append(a)
+            extras.constraints.append(a)
     result: list[Any] = await _parallel(_PARTIAL_ORDER, step_list)
     return result
 

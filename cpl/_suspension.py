@@ -41,10 +41,11 @@ async def on_suspension(handler: Callable[[], Any]) -> AsyncIterator[None]:
     suspended while the block runs, before it counts as suspended; handlers of nested
     blocks run innermost first. An exception from a handler propagates in the task."""
     task = _require_task("cpl.on_suspension")
-    if task._suspension_handlers is None:
-        task._suspension_handlers = []
-    task._suspension_handlers.append(handler)
+    extras = task._more()
+    if extras.suspension_handlers is None:
+        extras.suspension_handlers = []
+    extras.suspension_handlers.append(handler)
     try:
         yield
     finally:
-        task._suspension_handlers.remove(handler)
+        extras.suspension_handlers.remove(handler)

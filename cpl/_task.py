@@ -56,6 +56,7 @@ _SUCCEEDED = Status.SUCCEEDED
 _FAILED = Status.FAILED
 _EVAPORATED = Status.EVAPORATED
 _DEAD = frozenset({_SUCCEEDED, _FAILED, _EVAPORATED})
+_BODY_DONE: Any = object()  # Task._aw once the body has ended
 
 
 class Task:
@@ -71,24 +72,18 @@ class Task:
 
     __slots__ = (
         "__weakref__",
-        "_active_forms",
         "_atask",
         "_aw",
         "_blocked_on",
-        "_body_done",
         "_children",
-        "_constraints",
         "_entry",
+        "_extras",
         "_inline_parent",
         "_name_counts",
-        "_resume",
         "_run",
         "_state",
-        "_status_fluent",
         "_supervisor",
         "_suspend_requested",
-        "_suspension_handlers",
-        "_waiters",
         "_waiting",
         "annotations",
         "arguments",
@@ -120,6 +115,10 @@ class Task:
             )
         self.name: str = name if name is not None else _name_of(aw)
         self.kind: str = kind
+        # Invariant: the body (a coroutine or an async callable) until it is taken to run;
+        # then None; _BODY_DONE once the body has returned, failed or been evaporated: the
+        # outcome is then fixed and only the children's teardown remains (evaporate is a
+        # no-op).
         self._aw: Any = aw
         self._atask: asyncio.Task[None] | None = None
         # Invariant: set while this task runs *inline*: its body runs in the asyncio task
@@ -127,35 +126,26 @@ class Task:
         # tasks share one asyncio task down a chain; a suspension at the innermost one's
         # checkpoint is where the whole chain stops.
         self._inline_parent: Task | None = None
-        # Invariant: False until the body has returned, failed or been evaporated; then the
-        # outcome is fixed and only the children's teardown remains (evaporate is a no-op).
-        self._body_done: bool = False
         # Invariant: _state moves only along LEGAL_TRANSITIONS (checked in _set_state).
         self._state: Status = _CREATED
-        self._status_fluent: Any = None  # created on first access of .status
+        # Invariant: None until one of the rarely used parts is needed (the status fluent,
+        # partial-order constraints, suspension); a task without them carries none of
+        # their four fields (see _TaskExtras).
+        self._extras: _TaskExtras | None = None
         self._children: list[Task] | None = None  # creation order
         self._name_counts: dict[str, int] | None = None
         # the path entry: the name, or the call number n when the name repeats at this place
         # (the entry is then ``name#n``, built when asked: a string per task costs ~60 B)
         self._entry: str | int = self.name
-        self._waiters: list[asyncio.Future[None]] | None = None  # woken on every change
         # a form's supervisor, told (``finished(task)``) once when this task ends; an object,
         # not a bound method, so that a form's branch carries no extra allocation
         self._supervisor: Any = None
-        self._constraints: list[Task] | None = None  # partial order: start after these die
         # Invariant: True from suspend() until the task is SUSPENDED or wake_up() withdraws
         # the request; block_until suspends the task at its next checkpoint while set.
         self._suspend_requested: bool = False
-        # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
-        self._resume: asyncio.Future[None] | None = None
         # Invariant: the future the task awaits in block_until (its one checkpoint), else
         # None. A suspend request resolves it early (a spurious wake-up the caller re-checks).
         self._blocked_on: asyncio.Future[Any] | None = None
-        self._suspension_handlers: list[Callable[[], Any]] | None = None
-        # Invariant: the form nodes (par, pursue, ...) whose code runs in this task right
-        # now, innermost last; they follow this task into and out of SUSPENDED because
-        # they have no asyncio task of their own. Pushed and popped by the form.
-        self._active_forms: list[Task] | None = None
         self.result: Any = None
         self.failure: BaseException | None = None
         self.evaporation: Evaporated | None = None
@@ -245,12 +235,37 @@ class Task:
     @property
     def status(self) -> Fluent[Status]:
         """The status as a :class:`~cpl.Fluent` (created on first access)."""
-        fl: Fluent[Status] | None = self._status_fluent
+        extras = self._more()
+        fl: Fluent[Status] | None = extras.status_fluent
         if fl is None:
             from ._fluents import Fluent
 
-            fl = self._status_fluent = Fluent(self._state, name=f"{self.name}.status")
+            fl = extras.status_fluent = Fluent(self._state, name=f"{self.name}.status")
         return fl
+
+    def _more(self) -> _TaskExtras:
+        """The task's rarely used parts, created on first use."""
+        extras = self._extras
+        if extras is None:
+            extras = self._extras = _TaskExtras()
+        return extras
+
+    @property
+    def _constraints(self) -> list[Task] | None:
+        return None if self._extras is None else self._extras.constraints
+
+    @property
+    def _active_forms(self) -> list[Task] | None:
+        return None if self._extras is None else self._extras.active_forms
+
+    @property
+    def _resume(self) -> asyncio.Future[None] | None:
+        return None if self._extras is None else self._extras.resume
+
+    @_resume.setter
+    def _resume(self, fut: asyncio.Future[None] | None) -> None:
+        if fut is not None or self._extras is not None:
+            self._more().resume = fut
 
     @property
     def alive(self) -> bool:
@@ -267,15 +282,16 @@ class Task:
         if new not in LEGAL_TRANSITIONS[old]:
             raise RuntimeError(f"illegal status transition {old.name} -> {new.name} of {self!r}")
         self._state = new
-        fl = self._status_fluent
-        if fl is not None:
-            fl.value = new
-        waiters = self._waiters
-        if waiters is not None:
-            self._waiters = None
-            for fut in waiters:
-                if not fut.done():
-                    fut.set_result(None)
+        extras = self._extras
+        if extras is not None:
+            if extras.status_fluent is not None:
+                extras.status_fluent.value = new
+            waiters = extras.waiters
+            if waiters is not None:
+                extras.waiters = None
+                for fut in waiters:
+                    if not fut.done():
+                        fut.set_result(None)
         run = self._run
         if run is not None:
             hooks = run.instruments.task_status_changed
@@ -285,16 +301,18 @@ class Task:
 
     def _add_waiter(self) -> asyncio.Future[None]:
         fut: asyncio.Future[None] = asyncio.get_running_loop().create_future()
-        if self._waiters is None:
-            self._waiters = [fut]
+        extras = self._more()
+        if extras.waiters is None:
+            extras.waiters = [fut]
         else:
-            self._waiters.append(fut)
+            extras.waiters.append(fut)
         return fut
 
     def _drop_waiter(self, fut: asyncio.Future[None]) -> None:
-        if self._waiters is not None and not fut.done():
+        waiters = self._extras.waiters if self._extras is not None else None
+        if waiters is not None and not fut.done():
             try:
-                self._waiters.remove(fut)
+                waiters.remove(fut)
             except ValueError:
                 pass
 
@@ -338,14 +356,16 @@ class Task:
 
     def _push_form(self, node: Task) -> None:
         """``node``, a form running in this task's code, is active (suspension follows it)."""
-        if self._active_forms is None:
-            self._active_forms = [node]
+        extras = self._more()
+        if extras.active_forms is None:
+            extras.active_forms = [node]
         else:
-            self._active_forms.append(node)
+            extras.active_forms.append(node)
 
     def _pop_form(self, node: Task) -> None:
-        if self._active_forms is not None:
-            self._active_forms.remove(node)
+        forms = self._active_forms
+        if forms is not None:
+            forms.remove(node)
 
     # ----------------------------------------------------------------------- starting
     def start(self) -> Task:
@@ -522,7 +542,7 @@ class Task:
         finish; otherwise ``reraise``."""
         if outcome is not _SUCCEEDED:
             self.result = None
-        self._body_done = True
+        self._aw = _BODY_DONE
         if self._children:
             try:
                 await self._teardown_children()
@@ -533,6 +553,8 @@ class Task:
 
     def _close_aw(self) -> None:
         aw = self._aw
+        if aw is _BODY_DONE:
+            return
         self._aw = None
         if inspect.iscoroutine(aw):
             aw.close()
@@ -607,7 +629,7 @@ class Task:
         is dying anyway: evaporating it then is a no-op, and it ends with its body's
         outcome once its children are dead (as CRAM, whose teardown, once begun, runs to
         the end)."""
-        if self._state in _DEAD or self.evaporation is not None or self._body_done:
+        if self._state in _DEAD or self.evaporation is not None or self._aw is _BODY_DONE:
             return
         if by is None:
             caller = CURRENT_TASK.get()
@@ -675,7 +697,8 @@ class Task:
         """Suspend at a checkpoint: on_suspension handlers (innermost first), then
         SUSPENDED until woken. Evaporation while suspended raises :class:`Evaporated`
         (the task goes SUSPENDED -> EVAPORATED)."""
-        for handler in reversed(self._suspension_handlers or ()):
+        handlers = self._extras.suspension_handlers if self._extras is not None else None
+        for handler in reversed(handlers or ()):
             res = handler()
             if inspect.isawaitable(res):
                 await res
@@ -775,6 +798,32 @@ async def wait_dead(tasks: list[Task]) -> None:
         deferred.close()
 
 
+class _TaskExtras:
+    """The parts of a task that few tasks use, kept apart so that a task without them is
+    smaller (see ``Task._extras``)."""
+
+    __slots__ = (
+        "active_forms",
+        "constraints",
+        "resume",
+        "status_fluent",
+        "suspension_handlers",
+        "waiters",
+    )
+
+    def __init__(self) -> None:
+        self.waiters: list[asyncio.Future[None]] | None = None  # woken on every change
+        # Invariant: the form nodes (par, pursue, ...) whose code runs in this task right
+        # now, innermost last; they follow this task into and out of SUSPENDED because
+        # they have no asyncio task of their own. Pushed and popped by the form.
+        self.active_forms: list[Task] | None = None
+        self.status_fluent: Any = None  # created on first access of Task.status
+        self.constraints: list[Task] | None = None  # partial order: start after these die
+        # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
+        self.resume: asyncio.Future[None] | None = None
+        self.suspension_handlers: list[Callable[[], Any]] | None = None
+
+
 class _Driver:
     """What the asyncio task of a cpl task runs: :meth:`Task._main`'s work, done by hand.
 
@@ -785,26 +834,26 @@ class _Driver:
     RUNNING, the body's end is classified as in ``_main``'s ``except`` clauses, the body is
     closed, and the task finishes.
 
-    It hands over to a real coroutine and only forwards from then on
-    (``_forward`` is True) when the task must await around its body: it was evaporated
+    It hands over to a real coroutine and only forwards from then on (``_task`` is then
+    None) when the task must await around its body: it was evaporated
     before it ran, has partial-order constraints or a pending suspension (``_main``), or
     its body ended with children still alive (``_after_body`` tears them down).
     """
 
-    __slots__ = ("_coro", "_forward", "_task")
+    __slots__ = ("_coro", "_task")
 
     def __init__(self, task: Task) -> None:
-        self._task = task
+        # Invariant: the task until the driver hands over; None from then on (forwarding).
+        self._task: Task | None = task
         # Invariant: None before the first step; then the iterator of the body's awaitable,
-        # or (when _forward) the cpl coroutine that does its own bookkeeping.
+        # or (once _task is None) the cpl coroutine that does its own bookkeeping.
         self._coro: Any = None
-        self._forward = False
 
     def send(self, value: Any) -> Any:
         coro = self._coro
         if coro is None:
             return self._begin()
-        if self._forward:
+        if self._task is None:
             return coro.send(value)
         try:
             return coro.send(value)
@@ -818,6 +867,7 @@ class _Driver:
             # before it ran): the body never starts, and the task ends as if it had raised
             # ``exc`` at once (a cancellation from outside: EVAPORATED, then re-raised).
             task = self._task
+            assert task is not None
             CURRENT_TASK.set(task)
             task.start_time = asyncio.get_running_loop().time()
             task._set_state(_RUNNING)
@@ -825,7 +875,7 @@ class _Driver:
             if args:  # the old (type, value, traceback) form
                 exc = args[0] if isinstance(args[0], BaseException) else exc(*args[:1])
             return self._body_ended(exc)
-        if self._forward:
+        if self._task is None:
             return coro.throw(exc, *args)
         try:
             return coro.throw(exc, *args)
@@ -838,7 +888,7 @@ class _Driver:
             if coro is not None:
                 coro.close()
         finally:
-            if not self._forward:
+            if self._task is not None:
                 self._task._close_aw()
 
     def __await__(self) -> Any:  # the Coroutine protocol; asyncio only sends and throws
@@ -857,10 +907,11 @@ class _Driver:
 
     def _begin(self) -> Any:
         task = self._task
+        assert task is not None
         CURRENT_TASK.set(task)
-        if task.evaporation is not None or task._constraints or task._suspend_requested:
+        if task.evaporation is not None or task._suspend_requested or task._constraints:
             coro = self._coro = task._main()
-            self._forward = True
+            self._task = None
             return coro.send(None)
         task.start_time = asyncio.get_running_loop().time()
         task._set_state(_RUNNING)
@@ -873,6 +924,7 @@ class _Driver:
 
     def _body_ended(self, exc: BaseException) -> Any:
         task = self._task
+        assert task is not None
         reraise: BaseException | None = None
         if type(exc) is StopIteration:
             outcome = _SUCCEEDED
@@ -903,12 +955,12 @@ class _Driver:
         children = task._children
         if children and any(c._state not in _DEAD for c in children):
             coro = self._coro = task._after_body(outcome, reraise)
-            self._forward = True
+            self._task = None
             return coro.send(None)
         # No child left to tear down: _after_body's work, without awaiting.
         if outcome is not _SUCCEEDED:
             task.result = None
-        task._body_done = True
+        task._aw = _BODY_DONE
         task._finish(outcome)
         if reraise is not None:
             _raise_unreferenced(reraise)
