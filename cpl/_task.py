@@ -108,7 +108,12 @@ class Task:
         parent: Task | None = None,
         _register: bool = True,
     ) -> None:
-        if aw is not None and not inspect.isawaitable(aw) and not callable(aw):
+        if (
+            aw is not None
+            and type(aw) is not CoroutineType
+            and not inspect.isawaitable(aw)
+            and not callable(aw)
+        ):
             raise TypeError(
                 f"a cpl task runs a coroutine or a zero-argument async callable, got "
                 f"{type(aw).__name__}; did you mean to call the function first?"
@@ -852,13 +857,24 @@ class _Driver:
     def send(self, value: Any) -> Any:
         coro = self._coro
         if coro is None:
-            return self._begin()
-        if self._task is None:
+            coro = self._begin()
+        task = self._task
+        if task is None:
             return coro.send(value)
         try:
             return coro.send(value)
+        except StopIteration as stop:  # the body returned: the common end, handled here
+            task.result = stop.value
         except BaseException as exc:
             return self._body_ended(exc)
+        children = task._children
+        if children and any(c._state not in _DEAD for c in children):
+            coro = self._coro = task._after_body(_SUCCEEDED, None)
+            self._task = None
+            return coro.send(None)
+        task._aw = _BODY_DONE
+        task._finish(_SUCCEEDED)
+        raise StopIteration
 
     def throw(self, exc: Any, *args: Any) -> Any:
         coro = self._coro
@@ -906,21 +922,34 @@ class _Driver:
         return getattr(self._coro, "cr_await", None)
 
     def _begin(self) -> Any:
+        """The first step's set-up: what to send into (the body, or ``_main`` when the task
+        must await before its body; then the driver only forwards)."""
         task = self._task
         assert task is not None
         CURRENT_TASK.set(task)
-        if task.evaporation is not None or task._suspend_requested or task._constraints:
+        extras = task._extras
+        if (
+            task.evaporation is not None
+            or task._suspend_requested
+            or (extras is not None and extras.constraints)
+        ):
             coro = self._coro = task._main()
             self._task = None
-            return coro.send(None)
+            return coro
         task.start_time = asyncio.get_running_loop().time()
         task._set_state(_RUNNING)
-        try:
-            aw = task._take_body()
-            self._coro = aw if type(aw) is CoroutineType else aw.__await__()
-            return self._coro.send(None)
-        except BaseException as exc:
-            return self._body_ended(exc)
+        aw = task._aw
+        if type(aw) is CoroutineType:  # the common case: no call to _take_body
+            task._aw = None
+        else:
+            try:
+                aw = task._take_body()
+                if type(aw) is not CoroutineType:
+                    aw = aw.__await__()
+            except BaseException as exc:
+                aw = _raising(exc)  # the body fails at its first step, as in _main
+        self._coro = aw
+        return aw
 
     def _body_ended(self, exc: BaseException) -> Any:
         task = self._task
@@ -951,7 +980,8 @@ class _Driver:
             outcome = _FAILED
             task.failure = exc
         exc = None  # type: ignore[assignment]  # no failure -> frame -> failure cycle
-        task._close_aw()
+        if task._aw is not None:
+            task._close_aw()
         children = task._children
         if children and any(c._state not in _DEAD for c in children):
             coro = self._coro = task._after_body(outcome, reraise)
@@ -968,6 +998,12 @@ class _Driver:
 
 
 Coroutine.register(_Driver)
+
+
+def _raising(exc: BaseException) -> Generator[Any, Any, NoReturn]:
+    """An iterator whose first step raises ``exc`` (a body that could not be taken)."""
+    raise exc
+    yield  # a generator
 
 
 def _raise_unreferenced(exc: BaseException) -> NoReturn:
