@@ -658,26 +658,28 @@ def _rule_solutions(d: Designator, env: Environment) -> Iterator[Any]:
         type_ = WILDCARD
     elif not isinstance(type_, str):
         raise DesignatorError(f"{d.short()}: its type must be a string, got {type_!r}", d)
-    rules = env.rules.rules_for(kind, type_)
+    rules, known = env.rules.lookup(kind, type_)
     if not rules:
-        known = ", ".join(env.rules.known_types(kind)) or "none"
+        types = ", ".join(env.rules.known_types(kind)) or "none"
         raise DesignatorError(
             f"{d.short()} cannot be resolved: no {kind} rule for type {type_!r} (known "
-            f"{kind} types: {known}); register one with executive.register_rule("
+            f"{kind} types: {types}); register one with executive.register_rule("
             f"{kind!r}, {type_!r}, fn)",
             d,
         )
-    _check_keys(d, kind, type_, rules)
+    if known is not None:
+        _check_keys(d, kind, type_, known)
     return _chain_rules(d, env, rules, _NORMALISE[kind])
 
 
-def _check_keys(d: Designator, kind: str, type_: str, rules: tuple[Rule, ...]) -> None:
+def _check_keys(d: Designator, kind: str, type_: str, known: frozenset[str]) -> None:
     """DesignatorError for a key no rule of ``d``'s kind and type reads, when they all
-    declare their keys (see :meth:`executive.RuleSet.register`)."""
-    declared = [r.keys for r in rules]
-    if not declared or any(k is None for k in declared):
+    declare their keys (``known``; see :meth:`executive.RuleSet.register`)."""
+    for k, _ in d._props:
+        if k not in known:
+            break
+    else:
         return
-    known = {"type"}.union(*(k for k in declared if k is not None))
     unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
     if unknown:
         article = "an" if kind in ("action", "object") else "a"

@@ -131,6 +131,10 @@ class RuleSet:
         self._version = 0
         self._frozen = False
         self._cache: dict[Any, tuple[tuple[int, ...], tuple[Rule, ...]]] = {}
+        # (kind, type) -> (stamp, rules, keys they read or None); see lookup()
+        self._lookups: dict[
+            tuple[str, str], tuple[tuple[int, ...], tuple[Rule, ...], frozenset[str] | None]
+        ] = {}
         #: After this many candidates in a row are rejected, a location stream ends
         #: (CRAM's ``*location-generator-max-retries*``).
         self.location_max_rejections: int = parent.location_max_rejections if parent else 30
@@ -285,20 +289,36 @@ class RuleSet:
 
     def rules_for(self, kind: str, type: str) -> tuple[Rule, ...]:
         """The rules that ground a designator of ``kind`` and ``type``, in call order."""
+        return self.lookup(kind, type)[0]
+
+    def lookup(self, kind: str, type: str) -> tuple[tuple[Rule, ...], frozenset[str] | None]:
+        """The rules for ``kind`` and ``type`` (as :meth:`rules_for`) and the keys they
+        read: ``None`` when one of them does not declare its keys (then any key is
+        accepted). Cached until the rule set (or a parent) changes."""
         key = (kind, type)
         stamp = self._stamp()
-        hit = self._cache.get(key)
+        hit = self._lookups.get(key)
         if hit is not None and hit[0] == stamp:
-            return hit[1]
+            return hit[1], hit[2]
+        rules = self._sorted_rules(kind, type)
+        declared = [r.keys for r in rules]
+        known = (
+            None
+            if not declared or any(k is None for k in declared)
+            else frozenset({"type"}.union(*(k for k in declared if k is not None)))
+        )
+        self._lookups[key] = (stamp, rules, known)
+        return rules, known
+
+    def _sorted_rules(self, kind: str, type: str) -> tuple[Rule, ...]:
+        key = (kind, type)
         tagged = [(r.priority, 0, level, r.seq, r) for level, r in self._collect(key)]
         if type != WILDCARD:
             tagged += [
                 (r.priority, 1, level, r.seq, r) for level, r in self._collect((kind, WILDCARD))
             ]
         tagged.sort(key=lambda t: t[:4])
-        rules = tuple(t[4] for t in tagged)
-        self._cache[key] = (stamp, rules)
-        return rules
+        return tuple(t[4] for t in tagged)
 
     def _location(self, which: str) -> tuple[Rule, ...]:
         stamp = self._stamp()
