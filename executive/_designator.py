@@ -94,22 +94,35 @@ def _build(pairs: tuple[Any, ...], kw: Mapping[str, Any]) -> tuple[Pair, ...]:
 
 
 # -------------------------------------------------------------------------------- stream
+_NONE: Any = object()  # no solution yet
+
+
 class _SolutionStream:
     """A memoised, multi-consumer stream of solutions, generated in the context (and so the
     environment) of its creator. A generator error is remembered and re-raised on every later
     access past the solutions already produced."""
 
-    __slots__ = ("_ctx", "_error", "_it", "items")
+    __slots__ = ("_ctx", "_error", "_first", "_it", "_more")
 
     def __init__(self, it: Iterator[Any]) -> None:
-        self.items: list[Any] = []
+        # The solutions so far: _first, then _more (a list created at the second solution:
+        # most streams only ever give one, and a designator in the task tree keeps its
+        # stream, so one object less here is one less for the garbage collector to scan).
+        self._first: Any = _NONE
+        self._more: list[Any] | None = None
         self._it: Iterator[Any] | None = it
         self._ctx = contextvars.copy_context()
         self._error: Exception | None = None
 
+    def _count(self) -> int:
+        if self._first is _NONE:
+            return 0
+        return 1 if self._more is None else 1 + len(self._more)
+
     def get(self, i: int) -> tuple[bool, Any]:
-        items = self.items
-        while len(items) <= i:
+        if i == 0 and self._first is not _NONE:
+            return True, self._first
+        while self._count() <= i:
             it = self._it
             if it is None:
                 if self._error is not None:
@@ -124,8 +137,16 @@ class _SolutionStream:
                 self._it = None
                 self._error = exc
                 raise
-            items.append(value)
-        return True, items[i]
+            if self._first is _NONE:
+                self._first = value
+            elif self._more is None:
+                self._more = [value]
+            else:
+                self._more.append(value)
+        if i == 0:
+            return True, self._first
+        assert self._more is not None
+        return True, self._more[i - 1]
 
     def iter_from(self, i: int) -> Iterator[Any]:
         while True:
@@ -694,7 +715,12 @@ def _check_keys(d: Designator, kind: str, type_: str, known: frozenset[str]) -> 
 def _chain_rules(
     d: Designator, env: Environment, rules: tuple[Rule, ...], normalise: Any
 ) -> Iterator[Any]:
-    for rule in rules:
+    # by index: a suspended stream then holds no tuple iterator (one object less per
+    # designator kept in the task tree for the garbage collector to scan)
+    i, n = 0, len(rules)
+    while i < n:
+        rule = rules[i]
+        i += 1
         out = rule.call(d, env)
         if out is None:
             continue
