@@ -7,7 +7,8 @@ failure object, re-raised unchanged by every join) or EVAPORATED (cancelled; joi
 
 Design notes, and where we differ from CRAM:
 
-- A cpl task wraps an asyncio task whose coroutine is :meth:`Task._main`. Joiners never
+- A cpl task wraps an asyncio task that runs its body through :class:`_Driver` (the work
+  of :meth:`Task._main`, without a coroutine frame of its own). Joiners never
   await that asyncio task: they wait on futures of their own, so cancelling a joiner never
   leaks into the joined task (asyncio would otherwise cancel the awaited task too).
 - When a task's body has finished (returned, failed or been evaporated), the task
