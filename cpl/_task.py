@@ -915,6 +915,13 @@ class _Driver:
         return self.send(None)
 
     @property
+    def __name__(self) -> str:  # what asyncio's repr of the task shows as its coroutine
+        task = self._task
+        if task is None:
+            return str(getattr(self._coro, "__qualname__", "cpl task"))
+        return f"cpl task {task.name!r}"
+
+    @property
     def cr_frame(self) -> Any:  # for asyncio's Task.get_stack / print_stack
         return getattr(self._coro, "cr_frame", None)
 

@@ -28,13 +28,15 @@ def test_a_started_task_runs_on_a_driver_and_its_stack_is_the_bodys(mrun: Any) -
         assert atask is not None
         coro = atask.get_coro()
         stack = atask.get_stack()
+        shown = repr(atask)
         t.evaporate()
         await t.join()
-        return type(coro) is _Driver, [f.f_code.co_name for f in stack], t.state
+        return type(coro) is _Driver, [f.f_code.co_name for f in stack], shown, t.state
 
-    is_driver, stack, state = mrun(main)
+    is_driver, stack, shown, state = mrun(main)
     assert is_driver
     assert stack == ["body"]
+    assert "coro=<cpl task 'body'()>" in shown
     assert state is cpl.Status.EVAPORATED
 
 
