@@ -299,3 +299,88 @@ def test_fidelity_of_a_true_base_that_arrived():
     root, _ = run_real(real, imagination, lambda: perform(transporting()))
     unwitnessed = child(root, "real-run").annotations["fidelity"]
     assert unwitnessed.true_pick_base_m is None and unwitnessed.true_place_base_m is None
+
+
+# ----------------------------------------------------------------- the floor-plan picture
+def test_the_floor_plan_shows_the_imagined_bases_the_chosen_run_and_the_true_route():
+    """The figure's content, not its pixels: every imagined run's pick and place base is
+    plotted where the imagined robot stood (read from the tree's assessments), the chosen
+    run is ringed, the true bases and the true route (recorded by RouteRecorder from the
+    true world: 0.25 m short of every goal) are where the truth had them."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import executive
+    from aiocram._floorplan import RouteRecorder, draw_floor_plan
+    from aiocram.foresight import foresight_records
+    from cpl.testing import MockClock
+    from executive import current_environment
+    from plans.reasoning import TRUE_BASES, watch_bases
+
+    world, _real, _dream, imagination = setup()
+    robot, true_base = _short_real_robot(world, 0.25)
+
+    class TrueWorld:
+        def robot_pose(self) -> Pose:
+            return true_base[0]
+
+    recorder = RouteRecorder(TrueWorld())
+    box: list[cpl.Task] = []
+
+    async def main() -> Any:
+        env = executive.Environment(
+            "real",
+            process_modules=robot.pms.values(),
+            world=robot.world,
+            rules=robot.rules,
+            imagination=imagination,
+        )
+        async with executive.environment(env):
+            box.append(cpl.current_task())  # type: ignore[arg-type]
+            unwatch = watch_bases(current_environment(), lambda: true_base[0])
+            try:
+                return await perform(transporting())
+            finally:
+                unwatch()
+
+    cpl.run(main, clock=MockClock(), instruments=[recorder])
+    root = box[0]
+    (row,) = foresight_records(root)
+    fig, ax = plt.subplots()
+    try:
+        draw_floor_plan(ax, [((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))], recorder.route, [row])
+        plotted = {
+            c.get_gid(): [tuple(p) for p in c.get_offsets()] for c in ax.collections if c.get_gid()
+        }
+        (line,) = [ln for ln in ax.lines if ln.get_gid() == "route"]
+        drawn_route = list(zip(line.get_xdata(), line.get_ydata()))
+    finally:
+        plt.close(fig)
+    for name in RUN_NAMES:
+        bases = child(root, name).annotations["assessment"].bases
+        for kind in ("pick", "place"):
+            (point,) = plotted[f"imagined-1-{name}-{kind}"]
+            assert point == pytest.approx(bases[kind].position[:2], abs=1e-3)
+    chosen = child(root, row["chosen"]).annotations["assessment"].bases
+    true = child(root, "real-run").annotations[TRUE_BASES]
+    for kind in ("pick", "place"):
+        assert plotted[f"chosen-1-{kind}"][0] == pytest.approx(chosen[kind].position[:2], abs=1e-3)
+        assert plotted[f"true-1-{kind}"][0] == pytest.approx(true[kind].position[:2], abs=1e-3)
+        # the true base stood 0.25 m short (in x) of the chosen imagined base
+        assert plotted[f"true-1-{kind}"][0][0] == pytest.approx(
+            plotted[f"chosen-1-{kind}"][0][0] - 0.25, abs=1e-3
+        )
+    # the route: the true base at the start and after each real navigation, in order
+    assert drawn_route == [(x, y) for x, y, _yaw in recorder.route]
+    assert len(drawn_route) >= 3
+    for kind in ("pick", "place"):
+        assert any(p == pytest.approx(true[kind].position[:2]) for p in drawn_route)
+    # nothing imagined is on the route: the recorder skips imagined navigations
+    imagined_only = {
+        tuple(round(v, 3) for v in b.position[:2])
+        for name in RUN_NAMES
+        for b in child(root, name).annotations["assessment"].bases.values()
+    }
+    assert not imagined_only & {tuple(round(v, 3) for v in p) for p in drawn_route}
