@@ -105,8 +105,9 @@ async def _points_seen(object_type: str, points: Sequence[Pose]) -> int:
             log.info("no stand-in at %s: %s", point, error)
             continue
         try:
+            # the detecting motion itself (one look, no retries): is it seen from here?
             await perform(
-                an.action(type="detecting", object=an.object(type=object_type, name=name))
+                a.motion(type="detecting", object=an.object(type=object_type, name=name))
             )
             seen += 1
         except PerceptionLowLevelFailure:
