@@ -137,6 +137,12 @@ def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
     true_places = [
         f["true_place_base_m"] for f in records if f.get("true_place_base_m") is not None
     ]
+    agreeing = [f for f in records if f["agrees"]]
+
+    def agreeing_mean(key: str) -> float | None:
+        values = [f[key] for f in agreeing if f.get(key) is not None]
+        return statistics.fmean(values) if values else None
+
     return {
         "transports": len(records),
         "agreed": sum(1 for f in records if f["agrees"]),
@@ -151,6 +157,10 @@ def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "true_place_n": len(true_places),
         "mean_true_place_base_m": statistics.fmean(true_places) if true_places else None,
         "max_true_place_base_m": max(true_places) if true_places else None,
+        # the same where the real outcome was the predicted one (a real failure ends
+        # elsewhere, e.g. the object dropped at the sink)
+        "agreeing_true_pick_base_m": agreeing_mean("true_pick_base_m"),
+        "agreeing_true_place_base_m": agreeing_mean("true_place_base_m"),
     }
 
 
@@ -174,6 +184,8 @@ def fidelity_lines(rows: Iterable[dict[str, Any]]) -> list[str]:
             f"true base vs imagined: pick {m('mean_true_pick_base_m')} m "
             f"(max {m('max_true_pick_base_m')}, n {f.get('true_pick_n', 0)}), "
             f"place {m('mean_true_place_base_m')} m "
-            f"(max {m('max_true_place_base_m')}, n {f.get('true_place_n', 0)})"
+            f"(max {m('max_true_place_base_m')}, n {f.get('true_place_n', 0)}); "
+            f"where predicted: pick {m('agreeing_true_pick_base_m')} m, "
+            f"place {m('agreeing_true_place_base_m')} m"
         )
     return out
