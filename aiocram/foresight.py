@@ -109,15 +109,14 @@ def print_foresight(rows: Iterable[dict[str, Any]], console: Any) -> None:
             console.print(f"    chose {row['chosen']}: {row['why']}")
         fid = row.get("fidelity")
         if fid is not None:
+            console.print(f"    real: {fid['real']} (predicted {fid['predicted']})")
             off = [
-                f"{what} base {fid[key]:.2f} m off the imagined"
+                f"{what} {fid[key]:.2f} m"
                 for what, key in (("pick", "true_pick_base_m"), ("place", "true_place_base_m"))
                 if fid.get(key) is not None
             ]
-            console.print(
-                f"    real: {fid['real']} (predicted {fid['predicted']})"
-                + "".join(f", {o}" for o in off)
-            )
+            if off:
+                console.print("    true base vs imagined: " + ", ".join(off))
 
 
 def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
