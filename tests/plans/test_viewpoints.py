@@ -127,3 +127,36 @@ def test_without_an_imagination_that_can_spawn_the_search_navigates_as_before():
     finally:
         true.close()
         belief.close()
+
+
+def test_a_search_retry_chooses_its_viewpoint_anew():
+    """Composes with the search's retries: the first sample of the search location is
+    empty (the cup is not there), so the search tries the next sample, which imagines its
+    own viewpoints again; the cup is found there."""
+    empty = Pose((-0.85, 1.40, 0.91))  # on the island, the cup is on the sink counter
+
+    async def search() -> Any:
+        from executive import perform
+
+        return await perform(
+            an.action(
+                type="searching",
+                object=an.object(type="cup"),
+                location=a.location(among=(empty, SPOT)),
+                viewpoint_reasoning=True,
+            )
+        )
+
+    root, found, _end = _run(search, occluder=False)
+    assert found.get("name") == "cup-1"
+
+    def every(prefix: str) -> list[cpl.Task]:
+        out, stack = [], [root]
+        while stack:
+            t = stack.pop()
+            out += [t] if t.name.startswith(prefix) else []
+            stack.extend(t.children)
+        return out
+
+    assert len(every("chosen-viewpoint-")) == 2  # one choice per sample looked at
+    assert len(every("imagine-viewpoint-")) >= 4
