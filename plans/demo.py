@@ -358,7 +358,7 @@ async def table_setting(
     before_cleanup: Callable[[], None] | None = None,
     outcomes: dict[str, ObjectOutcome] | None = None,
     order_by_projection: bool = False,
-    viewpoint_reasoning: bool = False,
+    viewpoint_reasoning: bool = True,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -387,9 +387,8 @@ async def table_setting(
     the subtrees ``imagine-<type>`` / ``chosen-<type>`` show the choice. Off by default
     (it doubles the imagining; see the issue-14 note).
     ``viewpoint_reasoning`` (with ``projection_reasoning``): each search chooses where to
-    look from by projection (:mod:`plans.viewpoints`). Off by default: on the 10-seed
-    campaign it delivered fewer objects (84 % vs 88 % at 0 % faults; see the issue-14
-    note)."""
+    look from by projection (:mod:`plans.viewpoints`; on by default with
+    ``projection_reasoning``, see the issue-14 note for its measurement)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()

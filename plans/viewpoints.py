@@ -10,7 +10,8 @@ base poses and drives to the one predicted to see most of it:
   visibility costmap of the current sample, validated as usual, drawn with the belief
   world's generator), cut by bearing around the sample into ``runs`` regions
   (:func:`plans.reasoning.partition_by_bearing`); each region's first pose is a
-  candidate, so the candidates look from different sides;
+  candidate, so the candidates look from different sides; they are imagined in draw
+  order, so the plan's own first choice (the pool's first pose) is the first;
 * **imagined look**: each candidate is an :func:`plans.imagining.imagine_best` alternative
   (subtree ``imagine-viewpoint-<i>``): in the imagination (the belief world, which knows
   every occluder perceived so far) the robot navigates there, parks its arms out of view,
@@ -18,9 +19,12 @@ base poses and drives to the one predicted to see most of it:
   is spawned at each of :data:`REGION_POINTS` sample points of the search region (the
   current sample and the next ones of the search location) and detected by name: real
   PyBullet ray tests in the camera's frustum. The alternative returns how many it saw;
-* **choice**: most points seen first, then the route cost from where the robot stands
-  (:func:`plans.reasoning.route_cost`: distance + turning); a candidate whose imagined
-  navigation failed loses. The winner runs for real as ``chosen-viewpoint-<i>``: the robot
+* **choice**: a candidate whose imagined navigation failed loses; then most points seen;
+  a tie goes to the earlier candidate, i.e. to the plan's own choice, so projection only
+  overrides it where it predicts a better view. (Breaking ties by the route cost from
+  where the robot stands, :func:`plans.reasoning.route_cost`, is ``look_from_best``'s
+  ``by_cost``; on the 10-seed campaign it delivered fewer objects: issue-14 note.)
+  The winner runs for real as ``chosen-viewpoint-<i>``: the robot
   navigates to it (the other candidates and the rest of the pool follow as the
   location's further solutions, so a collision there tries the next best).
 
@@ -106,9 +110,7 @@ async def _points_seen(object_type: str, points: Sequence[Pose]) -> int:
             continue
         try:
             # the detecting motion itself (one look, no retries): is it seen from here?
-            await perform(
-                a.motion(type="detecting", object=an.object(type=object_type, name=name))
-            )
+            await perform(a.motion(type="detecting", object=an.object(type=object_type, name=name)))
             seen += 1
         except PerceptionLowLevelFailure:
             pass  # hidden from there
@@ -140,12 +142,15 @@ async def navigate_to_best_viewpoint(
     except DesignatorError as error:
         log.info("no viewpoints for %s: %s", spot, error)
         pool = []
-    candidates = [r[0] for r in partition_by_bearing(pool, spot.position[:2], RUNS) if r]
+    firsts = [r[0] for r in partition_by_bearing(pool, spot.position[:2], RUNS) if r]
+    # in draw order: the plan's own first choice (the pool's first pose) comes first and
+    # wins every tie, so projection only overrides it where it predicts a better view
+    candidates = sorted(firsts, key=lambda p: next(i for i, q in enumerate(pool) if q is p))
     if len(candidates) < 2:
         await perform(an.action(type="navigating", location=view))
         return {}
     points = _region_points(sample, spot)
-    return await look_from_best(object_type, candidates, points, spot, pool)
+    return await look_from_best(object_type, candidates, points, spot, pool, by_cost=False)
 
 
 async def look_from_best(
@@ -154,11 +159,14 @@ async def look_from_best(
     points: Sequence[Pose],
     spot: Pose,
     fallback: Sequence[Pose] = (),
+    *,
+    by_cost: bool = False,
 ) -> dict[str, Pose]:
     """Imagine looking at ``points`` from each of ``candidates`` (the alternatives
-    ``viewpoint-<i>``), then navigate for real to the one that saw most of them, the
-    cheaper route on a tie (see the module docstring); ``fallback``: further poses to try
-    if navigating there fails. Returns the candidates by alternative name."""
+    ``viewpoint-<i>``), then navigate for real to the one that saw most of them; on a tie
+    the earlier candidate (with ``by_cost``: the cheaper route from where the robot
+    stands, then the earlier); ``fallback``: further poses to try if navigating there
+    fails. Returns the candidates by alternative name."""
     env = current_environment()
     start = env.world.robot_pose() if env.has_world else None
     names = {f"viewpoint-{i}": pose for i, pose in enumerate(candidates, start=1)}
@@ -179,10 +187,9 @@ async def look_from_best(
         return look_from
 
     def score(imagined: Imagined) -> tuple[Any, ...]:
-        pose = names[imagined.name]
-        cost = route_cost([start, pose]) if start is not None else 0.0
         seen = imagined.value if isinstance(imagined.value, int) else -1
-        return (not imagined.succeeded, -seen, cost)
+        cost = route_cost([start, names[imagined.name]]) if by_cost and start is not None else 0.0
+        return (not imagined.succeeded, -seen, cost)  # then the earlier candidate
 
     await imagine_best({n: alternative(p) for n, p in names.items()}, score)
     return names

@@ -60,7 +60,9 @@ def _run(fn: Any, occluder: bool = True) -> tuple[cpl.Task, Any, Pose]:
 
 
 def test_a_viewpoint_predicted_to_be_occluded_loses_to_a_clear_one():
-    root, names, end = _run(lambda: look_from_best("cup", [BEHIND, CLEAR], [SPOT], SPOT))
+    root, names, end = _run(
+        lambda: look_from_best("cup", [BEHIND, CLEAR], [SPOT], SPOT, by_cost=True)
+    )
     assert names == {"viewpoint-1": BEHIND, "viewpoint-2": CLEAR}
     imagined = _names(root, "imagine-viewpoint-")
     assert set(imagined) == {"imagine-viewpoint-1", "imagine-viewpoint-2"}
