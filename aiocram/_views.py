@@ -31,7 +31,9 @@ from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration
 
 __all__ = ["DemoView", "Progress", "brief", "final_tree", "fold_failures"]
 
-_IMAGINED = "projection-run"
+#: subtrees that only run in imagination: projection reasoning's runs and the
+#: alternatives of ``plans.imagine_best`` (e.g. the search's imagined viewpoints)
+_IMAGINED = ("projection-run", "imagine-")
 _NUMBERED = re.compile(r"#\d+$")
 
 

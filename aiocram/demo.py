@@ -249,7 +249,7 @@ def _walk(task: cpl.Task) -> list[cpl.Task]:
 #: Files of a demo run in ``--out``, in the order the summary lists them; ``costmap-*``
 #: come after. Older runs' files of these kinds are replaced when the run ends.
 OUTPUT_FILES = ("log.jsonl", "plans.log", "final_scene.png", "robot_view.png")
-_STALE = (*OUTPUT_FILES, "costmap-*.png")
+_STALE = (*OUTPUT_FILES, "costmap-*.png", "floor_plan.png")
 
 
 def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None) -> DemoReport:
@@ -269,6 +269,7 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
     from projection import make_world_pair, real_robot_clock, with_real_robot
 
     from ._figures import CameraRecorder, CostmapRecorder
+    from ._floorplan import RouteRecorder
     from ._outputs import OutputError, Outputs
     from ._views import DemoView, Progress
 
@@ -337,8 +338,9 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
         observer = TruthObserver(true_world, belief_world, lambda: watch.tasks)
         camera = CameraRecorder(true_world)
         costmaps = CostmapRecorder(belief_world)
+        route = RouteRecorder(true_world)  # the floor plan's true route (issue 14)
         if outputs is not None:  # they record for the pictures only
-            instruments += [camera, costmaps]
+            instruments += [camera, costmaps, route]
         _set_up_scene(true_world, config)
         root_box: list[cpl.Task] = []
 
@@ -362,6 +364,7 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
         real_sim, imagined = _transport_times(root, watch)
         if outputs is not None:
             _write_pictures(outputs, true_world, camera, costmaps, engine_box)
+            route.write(true_world, foresight_records(root), outputs.path("floor_plan.png"))
         report = DemoReport(
             config,
             outcomes,

@@ -7,7 +7,9 @@ imagined run), its ``real-run`` subtree carries the assessments of the imagined 
 turns those into JSON rows (the demo's report and the campaign's runs carry them),
 :func:`print_foresight` prints them per transport, :func:`fidelity_summary` aggregates a
 campaign group's rows (the prediction agreed with the real outcome; how far the real base
-goals and route were from the imagined ones).
+goals and route were from the imagined ones, and how far the *true* robot's base stood at
+pick and place from where the imagined robot stood: ``"true_bases"``, recorded by the demo's
+truth observer from the true world).
 """
 
 from __future__ import annotations
@@ -19,6 +21,18 @@ from typing import Any
 import cpl
 
 __all__ = ["fidelity_summary", "foresight_records", "print_foresight"]
+
+
+def _xyyaw(pose: Any) -> list[float] | None:
+    """A pose as ``[x, y, yaw]`` (rounded to the millimetre / milliradian)."""
+    if pose is None:
+        return None
+    return [
+        round(float(pose.position[0]), 3),
+        round(float(pose.position[1]), 3),
+        round(float(pose.yaw), 3),
+    ]
+
 
 _IMAGINED_PREFIXES = ("projection-run-", "imagine-")
 
@@ -38,6 +52,7 @@ def foresight_records(root: cpl.Task) -> list[dict[str, Any]]:
     """One JSON row per real transport that imagined: object type, the imagined runs
     (name, prediction, cost, what each explored), the chosen run and why, the fidelity."""
     from executive import action_of
+    from plans.reasoning import TRUE_BASES
 
     rows: list[dict[str, Any]] = []
     for task in _real_tasks(root):
@@ -59,6 +74,7 @@ def foresight_records(root: cpl.Task) -> list[dict[str, Any]]:
                             "clean": a.clean,
                             "cost": a.cost,
                             "explored": dict(a.explored),
+                            "bases": {k: _xyyaw(p) for k, p in a.bases.items()},
                         }
                         for a in imagined
                     ],
@@ -66,6 +82,7 @@ def foresight_records(root: cpl.Task) -> list[dict[str, Any]]:
                     "why": notes.get("why"),
                     "imagining_wall_s": notes.get("imagined_wall_s"),
                     "fidelity": None if fidelity is None else fidelity.to_json(),
+                    "true_bases": {k: _xyyaw(p) for k, p in (notes.get(TRUE_BASES) or {}).items()},
                 }
             )
     return rows
@@ -92,11 +109,14 @@ def print_foresight(rows: Iterable[dict[str, Any]], console: Any) -> None:
             console.print(f"    chose {row['chosen']}: {row['why']}")
         fid = row.get("fidelity")
         if fid is not None:
-            apart = fid.get("pick_base_m")
-            console.print(
-                f"    real: {fid['real']} (predicted {fid['predicted']})"
-                + ("" if apart is None else f", pick base {apart:.2f} m off the imagined")
-            )
+            console.print(f"    real: {fid['real']} (predicted {fid['predicted']})")
+            off = [
+                f"{what} {fid[key]:.2f} m"
+                for what, key in (("pick", "true_pick_base_m"), ("place", "true_place_base_m"))
+                if fid.get(key) is not None
+            ]
+            if off:
+                console.print("    true base vs imagined: " + ", ".join(off))
 
 
 def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
@@ -112,6 +132,16 @@ def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
     picks = [f["pick_base_m"] for f in records if f.get("pick_base_m") is not None]
     places = [f["place_base_m"] for f in records if f.get("place_base_m") is not None]
     routes = [f["route_m"] for f in records if f.get("route_m") is not None]
+    true_picks = [f["true_pick_base_m"] for f in records if f.get("true_pick_base_m") is not None]
+    true_places = [
+        f["true_place_base_m"] for f in records if f.get("true_place_base_m") is not None
+    ]
+    agreeing = [f for f in records if f["agrees"]]
+
+    def agreeing_mean(key: str) -> float | None:
+        values = [f[key] for f in agreeing if f.get(key) is not None]
+        return statistics.fmean(values) if values else None
+
     return {
         "transports": len(records),
         "agreed": sum(1 for f in records if f["agrees"]),
@@ -119,6 +149,17 @@ def fidelity_summary(runs: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "mean_pick_base_m": statistics.fmean(picks) if picks else None,
         "mean_place_base_m": statistics.fmean(places) if places else None,
         "mean_route_m": statistics.fmean(routes) if routes else None,
+        # the true robot's base vs the imagined robot's, at pick / place (n: measured)
+        "true_pick_n": len(true_picks),
+        "mean_true_pick_base_m": statistics.fmean(true_picks) if true_picks else None,
+        "max_true_pick_base_m": max(true_picks) if true_picks else None,
+        "true_place_n": len(true_places),
+        "mean_true_place_base_m": statistics.fmean(true_places) if true_places else None,
+        "max_true_place_base_m": max(true_places) if true_places else None,
+        # the same where the real outcome was the predicted one (a real failure ends
+        # elsewhere, e.g. the object dropped at the sink)
+        "agreeing_true_pick_base_m": agreeing_mean("true_pick_base_m"),
+        "agreeing_true_place_base_m": agreeing_mean("true_place_base_m"),
     }
 
 
@@ -138,6 +179,12 @@ def fidelity_lines(rows: Iterable[dict[str, Any]]) -> list[str]:
             f"projection fidelity at faults {r['fault_rate']:.2f}: "
             f"{f['agreed']}/{f['transports']} = {100 * f['fidelity']:.1f} % predicted; "
             f"real vs imagined: pick base {m('mean_pick_base_m')} m, "
-            f"place base {m('mean_place_base_m')} m, route {m('mean_route_m')}"
+            f"place base {m('mean_place_base_m')} m, route {m('mean_route_m')}; "
+            f"true base vs imagined: pick {m('mean_true_pick_base_m')} m "
+            f"(max {m('max_true_pick_base_m')}, n {f.get('true_pick_n', 0)}), "
+            f"place {m('mean_true_place_base_m')} m "
+            f"(max {m('max_true_place_base_m')}, n {f.get('true_place_n', 0)}); "
+            f"where predicted: pick {m('agreeing_true_pick_base_m')} m, "
+            f"place {m('agreeing_true_place_base_m')} m"
         )
     return out

@@ -232,7 +232,9 @@ class TruthObserver:
 
     # -- during the run ----------------------------------------------------------
     def subscribe(self, env: Any) -> Callable[[], None]:
-        """Record where the belief has each object when it is released."""
+        """Record where the belief has each object when it is released, and annotate each
+        ``real-run`` of projection reasoning with the true robot's base pose at its pick and
+        place (:func:`plans.reasoning.watch_bases`, for the projection fidelity)."""
         from executive.events import ObjectDetached, object_name
 
         def released(event: ObjectDetached) -> None:
@@ -243,7 +245,19 @@ class TruthObserver:
                 return  # an object the belief does not know: no placing pose
             self.released_at[name] = tuple(float(v) for v in pose.position)  # type: ignore[assignment]
 
-        return env.subscribe(ObjectDetached, released)  # type: ignore[no-any-return]
+        from plans.reasoning import watch_bases
+
+        undo = [
+            env.subscribe(ObjectDetached, released),
+            # projection fidelity: where the *true* robot stood at each pick and place
+            watch_bases(env, self.true_world.robot_pose),
+        ]
+
+        def unsubscribe() -> None:
+            for u in undo:
+                u()
+
+        return unsubscribe
 
     def body_returned(self) -> None:
         """The demo plan's body has returned: record the tasks it leaked."""

@@ -358,6 +358,7 @@ async def table_setting(
     before_cleanup: Callable[[], None] | None = None,
     outcomes: dict[str, ObjectOutcome] | None = None,
     order_by_projection: bool = False,
+    viewpoint_reasoning: bool = True,
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
 
@@ -384,7 +385,10 @@ async def table_setting(
     :func:`plans.imagining.imagine_best` imagines transporting each of the next two
     objects and the better one (imagined success, then retries, then time) goes first;
     the subtrees ``imagine-<type>`` / ``chosen-<type>`` show the choice. Off by default
-    (it doubles the imagining; see the issue-14 note)."""
+    (it doubles the imagining; see the issue-14 note).
+    ``viewpoint_reasoning`` (with ``projection_reasoning``): each search chooses where to
+    look from by projection (:mod:`plans.viewpoints`; on by default with
+    ``projection_reasoning``, see the issue-14 note for its measurement)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
     env = current_environment()
@@ -417,6 +421,7 @@ async def table_setting(
                         target=place_location(outcome.type, bowl_placed=_bowl_placed(outcomes)),
                         projection_reasoning=projection_reasoning,
                         projection_runs=projection_runs,
+                        viewpoint_reasoning=projection_reasoning and viewpoint_reasoning,
                     )
                 )
                 outcome.success = delivered is not None

@@ -44,6 +44,7 @@ from ._common import (
 )
 from ._designators import ROBOT, _check_places, _location, _object
 from .atomic import park_arms
+from .viewpoints import navigate_to_best_viewpoint
 
 __all__ = ["SEARCH_FAILURES", "SEARCH_TORSO_HEIGHT", "arms_out_of_view", "search_for_object"]
 
@@ -59,7 +60,10 @@ SEARCH_FAILURES = (NavigationGoalInCollision, LookingHighLevelFailure, Perceptio
 
 @cpl.plan(name="search-for-object")
 async def search_for_object(
-    object_designator: ObjectDesignator, location: LocationDesignator, retries: int = 9
+    object_designator: ObjectDesignator,
+    location: LocationDesignator,
+    retries: int = 9,
+    viewpoint_reasoning: bool = False,
 ) -> ObjectDesignator:
     """Go where ``location``'s current sample is visible, look at it and detect the
     object; a perception failure there is retried once from the raised torso (v0.8.1's
@@ -67,7 +71,9 @@ async def search_for_object(
     ``looking-high-level-failure`` or ``perception-low-level-failure`` try the next
     sample of ``location`` (9 retries).
     Raises ``ObjectNowhereToBeFound`` when samples or retries run out (and for designator
-    errors). Returns the perceived designator."""
+    errors). Returns the perceived designator. ``viewpoint_reasoning``: choose the base pose
+    to look from by projection (:func:`plans.viewpoints.navigate_to_best_viewpoint`;
+    deliberate addition, CRAM samples one ``visible-for`` pose)."""
     spots = SolutionCursor(location)
 
     def nowhere(_failure: BaseException | None = None) -> ObjectNowhereToBeFound:
@@ -77,7 +83,10 @@ async def search_for_object(
     async def look_there() -> ObjectDesignator:
         spot = spots.current.reference()
         view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
-        await perform(an.action(type="navigating", location=view))
+        if viewpoint_reasoning:
+            await navigate_to_best_viewpoint(object_designator, spots.current, spot, view)
+        else:
+            await perform(an.action(type="navigating", location=view))
         await arms_out_of_view()
         await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
@@ -119,7 +128,14 @@ async def _look_from_higher(spot: Pose) -> None:
     await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
-@rule("action", "searching", keys=("object", "location"))
+@rule("action", "searching", keys=("object", "location", "viewpoint-reasoning"))
 def _searching(d: Designator) -> Iterator[Any]:
     _check_places(d, "location")
-    yield search_for_object, {"object_designator": _object(d), "location": _location(d, "location")}
+    yield (
+        search_for_object,
+        {
+            "object_designator": _object(d),
+            "location": _location(d, "location"),
+            "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),
+        },
+    )

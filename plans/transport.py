@@ -45,6 +45,7 @@ async def transport(
     arm: str | None = None,
     projection_reasoning: bool = True,
     projection_runs: int = 3,
+    viewpoint_reasoning: bool = False,
 ) -> ObjectDesignator | None:
     """Access the container (if ``location`` is ``in`` one), search, fetch and deliver the
     object; an ``object-undeliverable`` makes it drop the object at the sink. Search and
@@ -57,7 +58,9 @@ async def transport(
     pass-through. Cleanup: the container is sealed in a ``finally`` that runs
     shielded, so it also runs when the transport is evaporated (the evaporation is
     re-raised afterwards). Returns the delivered object designator, or ``None`` when it was
-    dropped at the sink."""
+    dropped at the sink. ``viewpoint_reasoning`` (the ``viewpoint-reasoning`` property,
+    default false): the search chooses where to look from by projection
+    (:mod:`plans.viewpoints`)."""
     container = location.get("in")
     accessible = container is None
     if not accessible:
@@ -66,7 +69,12 @@ async def transport(
         )
     try:
         found = await perform(
-            an.action(type="searching", object=object_designator, location=location)
+            an.action(
+                type="searching",
+                object=object_designator,
+                location=location,
+                viewpoint_reasoning=viewpoint_reasoning,
+            )
         )
 
         async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
@@ -130,7 +138,15 @@ async def _drop_and_return(obj: ObjectDesignator) -> None:
 @rule(
     "action",
     "transporting",
-    keys=("object", "location", "target", "arm", "projection-reasoning", "projection-runs"),
+    keys=(
+        "object",
+        "location",
+        "target",
+        "arm",
+        "projection-reasoning",
+        "projection-runs",
+        "viewpoint-reasoning",
+    ),
 )
 def _transporting(d: Designator) -> Iterator[Any]:
     _check_places(d, "location", "target")
@@ -143,5 +159,6 @@ def _transporting(d: Designator) -> Iterator[Any]:
             "arm": d.get("arm"),
             "projection_reasoning": bool(d.get("projection-reasoning", True)),
             "projection_runs": int(d.get("projection-runs", 3)),
+            "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),
         },
     )

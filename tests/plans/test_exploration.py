@@ -206,3 +206,181 @@ def test_the_demo_and_campaign_read_the_fidelity_from_the_tree():
     (line,) = fidelity_lines([{"fault_rate": 0.1, "fidelity": summary}])
     assert "1/2 = 50.0 % predicted" in line
     assert fidelity_lines([{"fault_rate": 0.0, "fidelity": fidelity_summary([])}]) == []
+
+
+# ------------------------------------------------------ fidelity against the true base
+def _short_real_robot(world: Any, short: float) -> tuple[Any, list[Pose]]:
+    """A real robot whose navigation *believes* it reached every goal (the belief robot is
+    set to the goal) while the true base stops ``short`` m before it along x; returns the
+    robot and a one-element list holding the true base pose."""
+    from conftest import make_robot
+
+    from executive.testing import FakeProcessModule
+
+    robot = make_robot(world)
+    true_base = [world.robot_pose()]
+
+    def drive(m: Any) -> None:
+        goal = m.reference().arguments["pose"]
+        world.set_robot_pose(goal)  # the belief: arrived
+        x, y, z = goal.position
+        true_base[0] = Pose((x - short, y, z), goal.orientation, goal.frame)
+
+    robot.pms["navigation"] = FakeProcessModule("navigation", accepts="going", result=drive)
+    return robot, true_base
+
+
+def _run_witnessed(robot: Any, imagination: Any, true_base: list[Pose]) -> cpl.Task:
+    """One transport in the real environment with a witness of the true base
+    (:func:`plans.reasoning.watch_bases`, as the demo's truth observer does)."""
+    from executive import current_environment
+    from plans.reasoning import watch_bases
+
+    box: list[cpl.Task] = []
+
+    async def body() -> Any:
+        me = cpl.current_task()
+        assert me is not None
+        box.append(me)
+        unwatch = watch_bases(current_environment(), lambda: true_base[0])
+        try:
+            return await perform(transporting())
+        finally:
+            unwatch()
+
+    run_real(robot, imagination, body)
+    return box[0]
+
+
+def test_fidelity_compares_the_true_base_with_the_imagined_one():
+    """Scripted disagreement: the real base stops 0.25 m short of every goal while the
+    belief says it arrived (so the commanded goals agree, 0 m); the fidelity record
+    measures the true base 0.25 m from where the imagined robot stood, at pick and place;
+    the foresight rows and the campaign aggregate carry it."""
+    from aiocram.foresight import fidelity_lines, fidelity_summary, foresight_records
+    from plans.reasoning import TRUE_BASES
+
+    world, _real, _dream, imagination = setup()
+    robot, true_base = _short_real_robot(world, 0.25)
+    root = _run_witnessed(robot, imagination, true_base)
+    real_run = child(root, "real-run")
+    fid = real_run.annotations["fidelity"]
+    assert fid.agrees  # the outcome was predicted ...
+    assert fid.pick_base_m == pytest.approx(0.0)  # ... and the commanded goals agree,
+    assert fid.true_pick_base_m == pytest.approx(0.25, abs=1e-6)  # the true base does not
+    assert fid.true_place_base_m == pytest.approx(0.25, abs=1e-6)
+    assert fid.true_pick_base_deg == pytest.approx(0.0, abs=1e-6)
+    # the imagined bases are the chosen run's own, where its robot stood at pick / place
+    chosen = child(root, fid.chosen).annotations["assessment"]
+    imagined_pick = nav_pose_before(child(root, fid.chosen), "fetching", "picking-up")
+    assert chosen.bases["pick"].position == pytest.approx(imagined_pick.position)
+    true_pick = real_run.annotations[TRUE_BASES]["pick"]
+    assert true_pick.position[0] == pytest.approx(imagined_pick.position[0] - 0.25)
+    (row,) = foresight_records(root)
+    assert row["true_bases"]["pick"][0] == pytest.approx(true_pick.position[0], abs=1e-3)
+    assert all(set(r["bases"]) == {"pick", "place"} for r in row["imagined"])
+    summary = fidelity_summary([{"foresight": [row]}])
+    assert summary["true_pick_n"] == 1
+    assert summary["mean_true_pick_base_m"] == pytest.approx(0.25, abs=1e-6)
+    (line,) = fidelity_lines([{"fault_rate": 0.0, "fidelity": summary}])
+    assert "true base vs imagined: pick 0.25 m" in line
+
+
+def test_fidelity_of_a_true_base_that_arrived():
+    """The same witness on a robot that really arrives: 0 m at pick and place; without a
+    witness there is no true-base figure at all (never the belief's)."""
+    world, _real, _dream, imagination = setup()
+    robot, true_base = _short_real_robot(world, 0.0)
+    fid = child(_run_witnessed(robot, imagination, true_base), "real-run").annotations["fidelity"]
+    assert fid.true_pick_base_m == pytest.approx(0.0) and fid.true_place_base_m == pytest.approx(
+        0.0
+    )
+    _world, real, _dream, imagination = setup()
+    root, _ = run_real(real, imagination, lambda: perform(transporting()))
+    unwitnessed = child(root, "real-run").annotations["fidelity"]
+    assert unwitnessed.true_pick_base_m is None and unwitnessed.true_place_base_m is None
+
+
+# ----------------------------------------------------------------- the floor-plan picture
+def test_the_floor_plan_shows_the_imagined_bases_the_chosen_run_and_the_true_route():
+    """The figure's content, not its pixels: every imagined run's pick and place base is
+    plotted where the imagined robot stood (read from the tree's assessments), the chosen
+    run is ringed, the true bases and the true route (recorded by RouteRecorder from the
+    true world: 0.25 m short of every goal) are where the truth had them."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import executive
+    from aiocram._floorplan import RouteRecorder, draw_floor_plan
+    from aiocram.foresight import foresight_records
+    from cpl.testing import MockClock
+    from executive import current_environment
+    from plans.reasoning import TRUE_BASES, watch_bases
+
+    world, _real, _dream, imagination = setup()
+    robot, true_base = _short_real_robot(world, 0.25)
+
+    class TrueWorld:
+        def robot_pose(self) -> Pose:
+            return true_base[0]
+
+    recorder = RouteRecorder(TrueWorld())
+    box: list[cpl.Task] = []
+
+    async def main() -> Any:
+        env = executive.Environment(
+            "real",
+            process_modules=robot.pms.values(),
+            world=robot.world,
+            rules=robot.rules,
+            imagination=imagination,
+        )
+        async with executive.environment(env):
+            box.append(cpl.current_task())  # type: ignore[arg-type]
+            unwatch = watch_bases(current_environment(), lambda: true_base[0])
+            try:
+                return await perform(transporting())
+            finally:
+                unwatch()
+
+    cpl.run(main, clock=MockClock(), instruments=[recorder])
+    root = box[0]
+    (row,) = foresight_records(root)
+    fig, ax = plt.subplots()
+    try:
+        draw_floor_plan(ax, [((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))], recorder.route, [row])
+        plotted = {
+            c.get_gid(): [tuple(p) for p in c.get_offsets()] for c in ax.collections if c.get_gid()
+        }
+        (line,) = [ln for ln in ax.lines if ln.get_gid() == "route"]
+        drawn_route = list(zip(line.get_xdata(), line.get_ydata()))
+    finally:
+        plt.close(fig)
+    for name in RUN_NAMES:
+        bases = child(root, name).annotations["assessment"].bases
+        for kind in ("pick", "place"):
+            (point,) = plotted[f"imagined-1-{name}-{kind}"]
+            assert point == pytest.approx(bases[kind].position[:2], abs=1e-3)
+    chosen = child(root, row["chosen"]).annotations["assessment"].bases
+    true = child(root, "real-run").annotations[TRUE_BASES]
+    for kind in ("pick", "place"):
+        assert plotted[f"chosen-1-{kind}"][0] == pytest.approx(chosen[kind].position[:2], abs=1e-3)
+        assert plotted[f"true-1-{kind}"][0] == pytest.approx(true[kind].position[:2], abs=1e-3)
+        # the true base stood 0.25 m short (in x) of the chosen imagined base
+        assert plotted[f"true-1-{kind}"][0][0] == pytest.approx(
+            plotted[f"chosen-1-{kind}"][0][0] - 0.25, abs=1e-3
+        )
+    # the route: the true base at the start and after each real navigation, in order
+    assert drawn_route == [(x, y) for x, y, _yaw in recorder.route]
+    assert len(drawn_route) >= 3
+    for kind in ("pick", "place"):
+        assert any(p == pytest.approx(true[kind].position[:2]) for p in drawn_route)
+    # nothing imagined is on the route: the recorder skips imagined navigations
+    imagined_only = {
+        tuple(round(v, 3) for v in b.position[:2])
+        for name in RUN_NAMES
+        for b in child(root, name).annotations["assessment"].bases.values()
+    }
+    assert not imagined_only & {tuple(round(v, 3) for v in p) for p in drawn_route}
