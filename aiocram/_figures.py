@@ -542,6 +542,10 @@ def costmap_figure(
     subtitle = textwrap.fill(use.location.short(), 95)
     ax.set_title(f"{title}\n{subtitle}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, format="png")
+    # the layout is done: without an engine, savefig draws once instead of twice (the same
+    # pixels); compress_level 1 encodes the PNG several times faster (pixels unchanged,
+    # the file ~20 % larger)
+    fig.set_layout_engine("none")
+    fig.savefig(path, format="png", pil_kwargs={"compress_level": 1})
     plt.close(fig)
     return path

@@ -549,16 +549,15 @@ class WorldBase:
             return
         states = pb.getJointStates(b, indices, physicsClientId=c)
         skip_ok = refreshed  # may this reset be skipped if it changes nothing?
-        for (i, v), state in zip(zip(indices, values), states):
-            if skip_ok:
-                pos, vel, v = state[0], state[1], float(v)
-                if (
-                    pos == v
-                    and vel == 0.0
-                    and _copysign(1.0, vel) > 0.0
-                    and _copysign(1.0, pos) == _copysign(1.0, v)
-                ):
-                    continue
+        for i, v, state in zip(indices, values, states):
+            if (
+                skip_ok
+                and state[0] == v  # cheap tests first: most joints that are set move
+                and state[1] == 0.0
+                and _copysign(1.0, state[1]) > 0.0
+                and _copysign(1.0, state[0]) == _copysign(1.0, v)
+            ):
+                continue
             pb.resetJointState(b, i, v, 0.0, physicsClientId=c)
             skip_ok = True
 

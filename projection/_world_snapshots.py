@@ -50,7 +50,12 @@ def _flat(x: Any) -> list[Any]:
 
 def _at_rest(lin: _Vec, ang: _Vec) -> bool:
     """Every component +0.0, bit for bit (-0.0 and NaN are not)."""
-    return all(v == 0.0 and copysign(1.0, v) > 0.0 for v in (*lin, *ang))
+    if lin != _ZERO or ang != _ZERO:  # (-0.0 == 0.0: the signs are checked below)
+        return False
+    return all(copysign(1.0, v) > 0.0 for v in (*lin, *ang))
+
+
+_ZERO = (0.0, 0.0, 0.0)
 
 
 class Snapshots(WorldBase):
