@@ -121,17 +121,17 @@ def _worker_main(conn: Any) -> None:
     """A local worker: run the jobs it is sent until it is sent ``None``. Ctrl-C is the
     parent's to handle (a terminal sends SIGINT to the whole process group)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from aiocram.demo import freeze_imports
+    from aiocram.demo import frozen_imports
 
-    freeze_imports()
-    while True:
-        try:
-            job = conn.recv()
-        except EOFError:
-            return
-        if job is None:
-            return
-        conn.send(run_job(job))
+    with frozen_imports():
+        while True:
+            try:
+                job = conn.recv()
+            except EOFError:
+                return
+            if job is None:
+                return
+            conn.send(run_job(job))
 
 
 class _Worker:
@@ -189,11 +189,11 @@ def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], N
     recorded as an ``error`` run of its job and replaced; the other jobs go on. On
     KeyboardInterrupt the workers are killed and the interrupt propagates."""
     if workers <= 1:
-        from aiocram.demo import freeze_imports
+        from aiocram.demo import frozen_imports
 
-        freeze_imports()
-        for job in jobs:
-            done(run_job(job))
+        with frozen_imports():
+            for job in jobs:
+                done(run_job(job))
         return
     import multiprocessing
     from multiprocessing.connection import wait

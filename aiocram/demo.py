@@ -17,11 +17,12 @@ sees) and ``costmap-*.png`` (the base-pose costmaps the real run used).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -388,13 +389,15 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
     return report
 
 
-def freeze_imports() -> None:
+@contextlib.contextmanager
+def frozen_imports() -> Iterator[None]:
     """Import what a demo run needs and move every object alive now (modules, classes,
     functions, constants: a few hundred thousand) to the collector's permanent generation
-    (``gc.freeze``), so that the full collections a run triggers no longer traverse them.
-    For a process that runs demos (``aiocram demo``, a campaign worker), called once
-    before the first run; it changes when cyclic garbage is freed, never what a run
-    does."""
+    (``gc.freeze``) until the block ends, so that the full collections the runs inside
+    trigger no longer traverse them. For the code that runs demos (``aiocram demo``, a
+    campaign's worker); it changes when cyclic garbage is freed, never what a run does.
+    Undone at the end (``gc.unfreeze``): frozen objects are invisible to
+    ``gc.get_referrers``, which other code in the process (hypothesis) relies on."""
     import gc
 
     import plans.demo  # noqa: F401  (and plans: the action rules)
@@ -403,6 +406,10 @@ def freeze_imports() -> None:
     from . import _figures, _outputs, _views  # noqa: F401
 
     gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def _set_up_scene(true_world: Any, config: DemoConfig) -> dict[str, Any]:
@@ -757,9 +764,8 @@ def _command(args: argparse.Namespace) -> int:
     except DemoConfigError as exc:
         print(f"aiocram demo: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    freeze_imports()
     try:
-        with Interrupts() as interrupts:
+        with frozen_imports(), Interrupts() as interrupts:
             report = run_demo(config, console=console, interrupts=interrupts)
     except DemoConfigError as exc:  # e.g. --out could not be created after all
         print(f"aiocram demo: error: {exc}", file=sys.stderr)

@@ -99,3 +99,14 @@ def test_a_failed_child_is_reported_and_the_parent_draws_its_pictures(
     assert "some costmap pictures not drawn" in err
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["costmap-part-0-of-2.png", "final_scene.png", "robot_view.png"]
+
+
+def test_the_import_freeze_is_undone_when_the_runs_end() -> None:
+    """``frozen_imports`` hides objects from ``gc.get_referrers`` while it lasts; it must
+    not outlive the runs (a test process goes on after ``aiocram demo``)."""
+    import gc
+
+    before = gc.get_freeze_count()
+    with demo.frozen_imports():
+        assert gc.get_freeze_count() > before
+    assert gc.get_freeze_count() == before
