@@ -494,11 +494,13 @@ def _write_pictures(
 def _fork(work: Callable[[], Any]) -> int | None:
     """Run ``work`` in a forked child that ends with ``os._exit`` (none of this process's
     cleanup runs there) and ignores Ctrl-C (the parent waits for it); the child's pid, or
-    None where there is no fork (``work`` is then left to the caller)."""
+    None where there is no fork or other threads run (``work`` is then left to the
+    caller)."""
     import logging
+    import threading
 
-    if not hasattr(os, "fork"):
-        return None
+    if not hasattr(os, "fork") or threading.active_count() > 1:
+        return None  # a forked child would hold only this thread (--gui has others)
     # nothing buffered is inherited (the child could write it a second time)
     sys.stdout.flush()
     sys.stderr.flush()

@@ -51,6 +51,15 @@ def test_the_two_parts_are_the_whole_set(monkeypatch: pytest.MonkeyPatch, tmp_pa
     assert first and drawn and not set(first) & set(drawn)
 
 
+@pytest.fixture
+def single_threaded(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Threads another test left behind must not turn the fork off here."""
+    import threading
+
+    monkeypatch.setattr(threading, "active_count", lambda: 1)
+
+
+@pytest.mark.usefixtures("single_threaded")
 def test_the_child_is_another_process_and_leaves_nothing_to_clean_up(tmp_path: Path) -> None:
     mark = tmp_path / "child"
     pid = demo._fork(lambda: mark.write_text(str(os.getpid())))
@@ -86,6 +95,7 @@ class _Costmaps:
         return []
 
 
+@pytest.mark.usefixtures("single_threaded")
 def test_a_failed_child_is_reported_and_the_parent_draws_its_pictures(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capfd: pytest.CaptureFixture[str]
 ) -> None:
@@ -110,3 +120,18 @@ def test_the_import_freeze_is_undone_when_the_runs_end() -> None:
     with demo.frozen_imports():
         assert gc.get_freeze_count() > before
     assert gc.get_freeze_count() == before
+
+
+def test_no_fork_while_other_threads_run(tmp_path: Path) -> None:
+    """A forked child would hold only the forking thread (``--gui`` runs others): then the
+    caller draws everything itself."""
+    import threading
+
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        assert demo._fork(lambda: None) is None
+    finally:
+        stop.set()
+        other.join()
