@@ -121,14 +121,17 @@ def _worker_main(conn: Any) -> None:
     """A local worker: run the jobs it is sent until it is sent ``None``. Ctrl-C is the
     parent's to handle (a terminal sends SIGINT to the whole process group)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    while True:
-        try:
-            job = conn.recv()
-        except EOFError:
-            return
-        if job is None:
-            return
-        conn.send(run_job(job))
+    from aiocram.demo import frozen_imports
+
+    with frozen_imports():
+        while True:
+            try:
+                job = conn.recv()
+            except EOFError:
+                return
+            if job is None:
+                return
+            conn.send(run_job(job))
 
 
 class _Worker:
@@ -186,8 +189,11 @@ def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], N
     recorded as an ``error`` run of its job and replaced; the other jobs go on. On
     KeyboardInterrupt the workers are killed and the interrupt propagates."""
     if workers <= 1:
-        for job in jobs:
-            done(run_job(job))
+        from aiocram.demo import frozen_imports
+
+        with frozen_imports():
+            for job in jobs:
+                done(run_job(job))
         return
     import multiprocessing
     from multiprocessing.connection import wait
@@ -549,6 +555,27 @@ def add_parser(subparsers: Any) -> None:
     p.set_defaults(handler=_command)
 
 
+def _own_sigint() -> Callable[[], None]:
+    """Make Ctrl-C (SIGINT) raise KeyboardInterrupt here while the campaign runs, and
+    return the function that puts the previous handler back.
+
+    A shell starts a background job (``cmd &``) of a non-interactive script with SIGINT
+    ignored, and Python keeps an ignored SIGINT ignored, so without this ``kill -INT``
+    would never stop a background campaign. Only the main thread can install handlers;
+    elsewhere (a campaign run from a thread) SIGINT stays as it is."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    def restore() -> None:
+        if previous is not None:  # None: a handler not installed from Python, left alone
+            signal.signal(signal.SIGINT, previous)
+
+    return restore
+
+
 def _command(args: argparse.Namespace) -> int:
     """Check every argument, then run; each run's record is appended to
     ``OUT/runs.jsonl`` as it ends; the summary goes to ``OUT/campaign.json`` and the
@@ -595,6 +622,7 @@ def _command(args: argparse.Namespace) -> int:
 
     results: list[dict[str, Any]] = []
     interrupted = False
+    restore_sigint = _own_sigint()
     try:
         run_campaign(
             **settings,
@@ -607,6 +635,7 @@ def _command(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         interrupted = True
     finally:
+        restore_sigint()
         runs_file.close()
     print(file=sys.stderr)
     summary = summarise(results)

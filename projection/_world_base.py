@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from math import copysign as _copysign
 from pathlib import Path
 from types import MappingProxyType
 from typing import Self
@@ -517,11 +518,48 @@ class WorldBase:
         return tuple([s[0] for s in states])  # PyBullet gives Python floats
 
     def _set_joints(
-        self, indices: Sequence[int], values: Sequence[float], body: int | None = None
+        self,
+        indices: Sequence[int],
+        values: Sequence[float],
+        body: int | None = None,
+        *,
+        refreshed: bool = False,
     ) -> None:
+        """Reset joints ``indices`` of ``body`` (default: the robot) to ``values`` at rest,
+        one ``resetJointState`` each, skipping the resets that provably change nothing.
+
+        A reset whose joint already has that position bit for bit and velocity +0.0 is
+        skipped, except the block's first executed one (``refreshed=True``: the caller has
+        just reset this body's base, so even the first may be skipped). Why this is exact,
+        broadphase included (Bullet's collision pairs, and so the physics, depend on the
+        history of AABB updates, which is why one ``resetJointStatesMultiDof`` for N
+        single resets changed a faulty run): every ``resetJointState`` recomputes the
+        body's link transforms from (base, joint positions), a pure function, and sets
+        every collider's AABB; with the state unchanged since the previous reset of this
+        same body (nothing else ran in between), those AABBs are the ones already set, so
+        ``btDbvtBroadphase::setAabb`` finds each inside its leaf (no tree change, no pair
+        search) and only moves the proxy to the head of the current stage list in the same
+        order the previous reset left it. The first reset of a block may follow physics
+        or another body's update, so it always runs. Repeated indices: nothing skipped."""
         b = self._robot if body is None else body
-        for i, v in zip(indices, values):
-            pb.resetJointState(b, i, v, 0.0, physicsClientId=self._c)
+        c = self._c
+        if (len(indices) < 2 and not refreshed) or len(set(indices)) != len(indices):
+            for i, v in zip(indices, values):
+                pb.resetJointState(b, i, v, 0.0, physicsClientId=c)
+            return
+        states = pb.getJointStates(b, indices, physicsClientId=c)
+        skip_ok = refreshed  # may this reset be skipped if it changes nothing?
+        for i, v, state in zip(indices, values, states):
+            if (
+                skip_ok
+                and state[0] == v  # cheap tests first: most joints that are set move
+                and state[1] == 0.0
+                and _copysign(1.0, state[1]) > 0.0
+                and _copysign(1.0, state[0]) == _copysign(1.0, v)
+            ):
+                continue
+            pb.resetJointState(b, i, v, 0.0, physicsClientId=c)
+            skip_ok = True
 
     def _reset_base(self, x: float, y: float, yaw: float) -> None:
         pb.resetBasePositionAndOrientation(

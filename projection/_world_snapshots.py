@@ -4,6 +4,7 @@ return to it (spawns and removals undone)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import copysign
 from typing import Any
 
 import pybullet as pb
@@ -47,6 +48,16 @@ def _flat(x: Any) -> list[Any]:
     return [x]
 
 
+def _at_rest(lin: _Vec, ang: _Vec) -> bool:
+    """Every component +0.0, bit for bit (-0.0 and NaN are not)."""
+    if lin != _ZERO or ang != _ZERO:  # (-0.0 == 0.0: the signs are checked below)
+        return False
+    return all(copysign(1.0, v) > 0.0 for v in (*lin, *ang))
+
+
+_ZERO = (0.0, 0.0, 0.0)
+
+
 class Snapshots(WorldBase):
     """``snapshot`` / ``restore`` (a mixin of :class:`projection.World`)."""
 
@@ -78,7 +89,8 @@ class Snapshots(WorldBase):
         for n in [n for n in self._objects if n not in keep]:
             self.remove_object(n)
         self._reset_base(*snap.base)
-        self._set_joints(self._dofs, snap.robot_joints)
+        # the base reset just updated every robot collider: see _set_joints
+        self._set_joints(self._dofs, snap.robot_joints, refreshed=True)
         self._set_joints(list(self._kitchen_joints.values()), snap.kitchen_joints, self._kitchen)
         for n, t, pos, orn, lin, ang in snap.objects:
             obj = self._objects.get(n)
@@ -88,6 +100,9 @@ class Snapshots(WorldBase):
                 self.spawn_object(n, t, Pose(pos, orn, "map"), allow_overlap=True)
                 obj = self._objects[n]
             pb.resetBasePositionAndOrientation(obj.body, pos, orn, physicsClientId=c)
-            pb.resetBaseVelocity(obj.body, lin, ang, physicsClientId=c)
+            # that reset left the body at rest (+0.0 velocities) and just updated its
+            # collider: setting +0.0 again would change nothing (see _set_joints)
+            if not _at_rest(lin, ang):
+                pb.resetBaseVelocity(obj.body, lin, ang, physicsClientId=c)
         self._objects = {n: self._objects[n] for n, *_ in snap.objects}  # snapshot order
         self._attached = {n: (link, rel) for n, link, rel in snap.attachments}

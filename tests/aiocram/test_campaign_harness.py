@@ -102,8 +102,18 @@ _INTERRUPTIBLE = textwrap.dedent(
 )
 
 
-@pytest.mark.parametrize("workers", ["1", "2"])
-def test_ctrl_c_writes_the_partial_summary_and_exits_130(tmp_path, workers):
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@pytest.mark.parametrize(
+    ("workers", "inherited"),
+    [("1", "default"), ("2", "default"), ("1", "ignored"), ("2", "ignored")],
+)
+def test_ctrl_c_writes_the_partial_summary_and_exits_130(tmp_path, workers, inherited):
+    """``inherited="ignored"``: started as a non-interactive shell starts a background job
+    (``aiocram campaign ... &``), with SIGINT ignored; one SIGINT must stop it all the
+    same."""
     out = tmp_path / "i"
     script = _INTERRUPTIBLE.format(
         root=str(ROOT), tests=str(Path(__file__).parent), workers=workers, out=str(out)
@@ -114,6 +124,7 @@ def test_ctrl_c_writes_the_partial_summary_and_exits_130(tmp_path, workers):
         stderr=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
+        preexec_fn=_ignore_sigint if inherited == "ignored" else None,
     )
     try:
         deadline = time.monotonic() + 60
