@@ -30,6 +30,7 @@ from executive.failures import (
     PerceptionObjectNotInWorld,
 )
 from executive.knowledge import ARM_PREFIX
+from projection._arm_planner import controller_path, swept_objects
 from projection._objects import object_type as _object_type
 from projection._world import Contact, World
 
@@ -74,10 +75,15 @@ class ProjectedWorldModel:
       world).
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: World, *, swept: bool = True) -> None:
         if not isinstance(world, World):
             raise TypeError(f"ProjectedWorldModel needs a projection.World, got {world!r}")
+        if not isinstance(swept, bool):
+            raise TypeError(f"swept must be True or False, got {swept!r}")
         self.world = world
+        #: Whether :meth:`probe_arm_trajectory` also checks the path the arm sweeps
+        #: between waypoints (the real controller's path), not the waypoints alone.
+        self.swept = swept
         c, robot = world.client, world.robot_body
         self._robot_links = frozenset(
             pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
@@ -203,7 +209,16 @@ class ProjectedWorldModel:
         ``ManipulationPoseUnreachable`` (no IK) or, where collisions are checked, with
         :class:`executive.ManipulationGoalInCollision` (``contacts=[...]``) when the robot
         or what it carries touches anything whose object, body or link name is not in
-        ``allowed_contacts``. The world is restored. Bad arguments raise
+        ``allowed_contacts``. Where collisions are checked and :attr:`swept` is on
+        (the default), the path the real arm controller follows *to* the waypoint
+        (:func:`projection._arm_planner.controller_path`: the straight tool line, rerouted
+        around free objects where it can be) must not sweep the robot or what it holds
+        through a free object either (other than ``allowed_contacts`` and those it
+        touches where that motion starts or ends): else
+        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``).
+        Deliberate addition: CRAM checked the waypoints only, and its arm moved between
+        them wherever its controller took it; the simulated real arm follows that path
+        and topples what it sweeps through. The world is restored. Bad arguments raise
         TypeError/ValueError."""
         arm = _arm(arm)
         wps = [_pose(p, f"waypoint {i}") for i, p in enumerate(waypoints)]
@@ -231,6 +246,7 @@ class ProjectedWorldModel:
             except _PlanFailure as failure:
                 return ProbeResult(False, failure)
             for i, (wp, check) in enumerate(zip(wps, checks)):
+                torso, start = world.torso_height, {arm: world.arm_joints(arm)}
                 try:
                     world.move_tcp(**{arm: wp})
                 except _PlanFailure as failure:
@@ -239,9 +255,45 @@ class ProjectedWorldModel:
                     contacts = [c for c in world.robot_collisions() if not _allowed(c, allowed)]
                     if contacts:
                         return ProbeResult(False, _in_collision(arm, i, contacts), i)
+                    if self.swept:
+                        swept = self._swept(arm, wp, torso, start, allowed)
+                        if swept:
+                            return ProbeResult(False, _swept_into(arm, i, swept), i)
             return ProbeResult(True)
         finally:
             world.restore(snap)
+
+    def _swept(
+        self,
+        arm: str,
+        waypoint: Pose,
+        torso: float,
+        start: dict[str, tuple[float, ...]],
+        allowed: frozenset[str],
+    ) -> list[str]:
+        """With the robot at a waypoint's IK goal: the free objects (not ``allowed``, not
+        touched where the motion starts or ends) that the real controller's path from
+        ``torso``/``start`` to here sweeps the arm (or what it holds) through, sorted.
+        The path is :func:`projection._arm_planner.controller_path` in this world, i.e.
+        what the arms module will follow if the world is as believed. Leaves the robot at
+        the goal configuration."""
+        world = self.world
+        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
+        free = {n for n in world.objects if n not in world.attachments} - allowed
+        others = free - _touched(world, free)
+        if others:
+            world.move_torso(torso)
+            world.move_joints(**start)
+            others -= _touched(world, others)
+            world.move_torso(goal_torso)
+            world.move_joints(**goal)
+        if not others:
+            return []
+        path = controller_path(world, "move-tcp", [arm], {arm: waypoint}, torso, start)
+        hits = swept_objects(world, path, others)
+        world.move_torso(goal_torso)
+        world.move_joints(**goal)
+        return sorted(hits)
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         """Would an object of ``object_type`` released at ``pose`` stay within
@@ -299,6 +351,19 @@ class ProjectedWorldModel:
 def _allowed(contact: Contact, allowed: frozenset[str]) -> bool:
     names = {contact.body_a, contact.link_a, contact.body_b, contact.link_b} - {"object"}
     return not names.isdisjoint(allowed)
+
+
+def _touched(world: World, names: set[str]) -> set[str]:
+    return {c.body_b for c in world.robot_collisions() if c.body_b in names}
+
+
+def _swept_into(arm: str, index: int, objects: list[str]) -> ManipulationGoalInCollision:
+    return ManipulationGoalInCollision(
+        f"{arm} arm on its way to waypoint {index} sweeps through {', '.join(objects)}",
+        arm=arm,
+        index=index,
+        swept=tuple(objects),
+    )
 
 
 def _in_collision(arm: str, index: int, contacts: list[Contact]) -> ManipulationGoalInCollision:
