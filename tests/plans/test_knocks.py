@@ -1,0 +1,69 @@
+"""The simulated real robot does not knock the neighbours of what it picks (issue 13): a
+neighbour standing in the arm's sweep is injected, and the plan-side check (the belief,
+which knows the neighbour from perception, probed along the controller's path) makes the
+fetch choose another arm or grasp instead of pushing it."""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+import pytest
+
+import plans  # noqa: F401 - the action rules
+from executive import Pose, a, an, current_environment, perform
+from projection import FaultProfile, make_world_pair, settle, with_real_robot
+
+SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
+CUP_LOOK = Pose((1.3, 0.6, 0.9))
+NEIGHBOUR = "cereal-9"
+#: On the sink counter in front of the cup: the first picking-up solution that passes the
+#: waypoint checks sweeps the arm through a box standing here.
+IN_THE_SWEEP = Pose((1.2, 0.5, 0.995))
+
+
+def _fetch_cup(mrun: Any, swept: bool) -> tuple[float, dict[str, str]]:
+    """Detect the cup from the sink and fetch it with the real robot, a cereal box in the
+    sweep; returns how far the box moved in the true world and what the robot holds."""
+    true, belief = make_world_pair(0)
+    try:
+        true.spawn_object(NEIGHBOUR, "breakfast-cereal", IN_THE_SWEEP)
+        settle(true, 100)
+        start = true.object_pose(NEIGHBOUR)
+
+        async def main() -> None:
+            async with with_real_robot(true, belief, FaultProfile.none()):
+                current_environment().world.belief.swept = swept
+                await perform(a.motion(type="going", pose=SINK_NAV))
+                await perform(a.motion(type="looking", pose=CUP_LOOK))
+                cup = await perform(a.motion(type="detecting", object=an.object(type="cup")))
+                assert NEIGHBOUR in belief.objects  # perception taught the belief
+                await perform(an.action(type="fetching", object=cup))
+
+        mrun(main)
+        return math.dist(true.object_pose(NEIGHBOUR).position, start.position), dict(
+            true.attachments
+        )
+    finally:
+        true.close()
+        belief.close()
+
+
+def test_fetching_chooses_a_reach_that_does_not_sweep_through_a_neighbour(
+    mrun: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    with caplog.at_level(logging.INFO, logger="plans.checks"):
+        moved, held = _fetch_cup(mrun, swept=True)
+    assert held.get("cup-1", "").endswith("_wrist_roll_link")
+    assert moved < 0.005
+    assert any("sweeps through cereal-9" in r.getMessage() for r in caplog.records)
+
+
+def test_checking_the_waypoints_only_pushes_the_neighbour(mrun: Any) -> None:
+    """The injected knock is real: with the probe checking the waypoints only (CRAM's
+    check), the same fetch pushes the box."""
+    moved, held = _fetch_cup(mrun, swept=False)
+    assert "cup-1" in held
+    assert moved > 0.01
+
