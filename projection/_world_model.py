@@ -40,6 +40,8 @@ __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
 DETACH_SETTLE_STEPS = 10
 #: How far (m) a placed object may move before the pose counts as unstable (CRAM: 0.2).
 STABILITY_THRESHOLD = 0.2
+#: Entries of a :class:`ProjectedWorldModel`'s memo of sweep checks before it is cleared.
+SWEEP_MEMO_SIZE = 4096
 #: How far (m) the footprints of a placed object and a neighbour may interpenetrate before
 #: the placing pose counts as overlapping it.
 OVERLAP_TOLERANCE = 0.005
@@ -84,6 +86,11 @@ class ProjectedWorldModel:
         #: Whether :meth:`probe_arm_trajectory` also checks the path the arm sweeps
         #: between waypoints (the real controller's path), not the waypoints alone.
         self.swept = swept
+        # sweep checks already made: (arm, start and goal configuration, waypoint, what the
+        # robot holds, the free objects' poses) -> the objects swept through; a probe
+        # repeated from the same state (the imagined runs, a check then its re-check)
+        # costs a lookup. Cleared when it reaches SWEEP_MEMO_SIZE entries.
+        self._sweeps: dict[tuple[Any, ...], list[str]] = {}
         c, robot = world.client, world.robot_body
         self._robot_links = frozenset(
             pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
@@ -280,6 +287,42 @@ class ProjectedWorldModel:
         world = self.world
         goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
         free = {n for n in world.objects if n not in world.attachments} - allowed
+        key = (
+            arm,
+            _rounded(torso, *start[arm], goal_torso, *goal[arm]),
+            _rounded(
+                *world.arm_joints("left" if arm == "right" else "right"),
+                world.gripper_opening("left"),
+                world.gripper_opening("right"),
+            ),
+            _rounded(*waypoint.position, *waypoint.orientation),
+            waypoint.frame,
+            _rounded(*world.robot_pose().position, *world.robot_pose().orientation),
+            tuple(sorted(world.attachments.items())),
+            tuple(
+                (n, _rounded(*p.position, *p.orientation))
+                for n in sorted(free)
+                for p in (world.object_pose(n),)
+            ),
+        )
+        memo = self._sweeps
+        if key in memo:
+            return memo[key]
+        if len(memo) >= SWEEP_MEMO_SIZE:
+            memo.clear()
+        memo[key] = hits = self._swept_uncached(arm, waypoint, torso, start, free)
+        return hits
+
+    def _swept_uncached(
+        self,
+        arm: str,
+        waypoint: Pose,
+        torso: float,
+        start: dict[str, tuple[float, ...]],
+        free: set[str],
+    ) -> list[str]:
+        world = self.world
+        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
         others = free - _touched(world, free)
         if others:
             world.move_torso(torso)
@@ -351,6 +394,10 @@ class ProjectedWorldModel:
 def _allowed(contact: Contact, allowed: frozenset[str]) -> bool:
     names = {contact.body_a, contact.link_a, contact.body_b, contact.link_b} - {"object"}
     return not names.isdisjoint(allowed)
+
+
+def _rounded(*values: float) -> tuple[float, ...]:
+    return tuple(round(float(v), 4) for v in values)
 
 
 def _touched(world: World, names: set[str]) -> set[str]:
