@@ -87,10 +87,13 @@ def _pick_arguments(action: Designator) -> dict[str, Any]:
     return dict(cast(Any, action.reference()).arguments)
 
 
-def check_picking_up_collisions(action: ActionDesignator, retries: int = 30) -> Designator:
+def check_picking_up_collisions(action: ActionDesignator, retries: int = 60) -> Designator:
     """Probe the ``picking-up`` solutions (arm, grasp), from the newest one, until the
     whole trajectory (reach, grasp, lift) is reachable and touches nothing but the target
-    object; returns that member of the chain. No solution within ``retries`` next
+    object, and the arm sweeps through no other object on its way (the world model's
+    probe checks the controller's path); returns that member of the chain. Deliberate
+    difference: CRAM probed 30 solutions; each of ours comes straight and from above
+    (:func:`plans.pick_place._approaches`), so 60. No solution within ``retries`` next
     solutions, or a designator error -> ``ObjectUnreachable``."""
     world = _world()
     current: Designator | None = action.current()
@@ -126,7 +129,10 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
     from HEAD (which probed only the first grounding): up to ``retries`` further
     solutions of the grounding are probed (``next_solution``, as for picking up): the
     placing yaw variants of :mod:`plans.pick_place`; the deliver plan's target loop still
-    retries other targets. Returns the first member of the chain that passes. No
+    retries other targets. The path between waypoints is not checked (``swept=False``):
+    with it, the cereal's fixed placing poses among the objects placed before it were
+    all refused (the held box swept over them), and no other pose is tried. Returns the
+    first member of the chain that passes. No
     solution passes, or a designator error -> ``ObjectUnreachable`` (naming the first
     solution's failure)."""
     world = _world()
@@ -146,6 +152,7 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
                 waypoints,
                 allowed_contacts=(object_name(obj),),
                 check_collisions=checks,
+                swept=False,
             )
             if result.ok:
                 return current

@@ -4,7 +4,7 @@ CRAM's nested failure handling and retry counts:
 =================  ==========================================  ============================
 action             retries (HEAD)                              raises when exhausted
 =================  ==========================================  ============================
-fetching           10 relocations, 1 regrasp, 30 pick checks   object-unfetchable
+fetching           10 relocations, 1 regrasp, 60 pick checks   object-unfetchable
 =================  ==========================================  ============================
 
 Deliberate difference from CRAM: the base backs off (:func:`plans.navigation.back_off`)
@@ -44,7 +44,7 @@ from ._common import (
 from ._designators import ROBOT, _check_places, _object
 from .atomic import park_arms
 from .checks import check_picking_up_collisions
-from .navigation import back_off
+from .navigation import back_off, park_clear
 
 __all__ = ["FETCH_RELOCATION_FAILURES", "fetch"]
 
@@ -64,8 +64,10 @@ async def fetch(
     ``looking-high-level-failure``, ``perception-low-level-failure``,
     ``object-unreachable`` or ``manipulation-low-level-failure`` go to the next base pose.
     Its body: navigate, turn towards the object, then the regrasp scope (1 retry, parks
-    the arms on ``gripper-low-level-failure``; exhausted -> ``object-unreachable``): detect,
-    check the picking-up solutions (:func:`check_picking_up_collisions`, 30) and pick up.
+    the arms on ``gripper-low-level-failure``, backing off first if the belief says the
+    park would sweep through a neighbour (:func:`plans.navigation.park_clear`); exhausted
+    -> ``object-unreachable``): detect, check the picking-up solutions
+    (:func:`check_picking_up_collisions`, 60) and pick up.
     Raises ``ObjectUnfetchable`` when relocations run out (and for designator errors).
     Parks the arms and returns the newest object designator."""
 
@@ -95,7 +97,7 @@ async def fetch(
                 GripperLowLevelFailure,
                 None,
                 CountedRetries(1, "regrasps"),
-                before_retry=park_arms,
+                before_retry=park_clear,
                 rethrow=lambda _f: ObjectUnreachable(object=object_label(object_designator)),
             )
             async def pick() -> None:

@@ -208,6 +208,7 @@ class ProjectedWorldModel:
         gripper_opening: float | None = None,
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
+        swept: bool | None = None,
     ) -> ProbeResult:
         """Drive to ``robot_pose`` (if given; in collision -> ``NavigationPoseUnreachable``,
         index None), set the gripper opening (if given; out of range ->
@@ -216,8 +217,8 @@ class ProjectedWorldModel:
         ``ManipulationPoseUnreachable`` (no IK) or, where collisions are checked, with
         :class:`executive.ManipulationGoalInCollision` (``contacts=[...]``) when the robot
         or what it carries touches anything whose object, body or link name is not in
-        ``allowed_contacts``. Where collisions are checked and :attr:`swept` is on
-        (the default), the path the real arm controller follows *to* the waypoint
+        ``allowed_contacts``. Where collisions are checked and ``swept`` is on (None:
+        :attr:`swept`, on by default), the path the real arm controller follows *to* the waypoint
         (:func:`projection._arm_planner.controller_path`: the straight tool line, rerouted
         around free objects where it can be) must not sweep the robot or what it holds
         through a free object either (other than ``allowed_contacts`` and those it
@@ -242,6 +243,9 @@ class ProjectedWorldModel:
         if isinstance(allowed_contacts, str):
             raise TypeError("allowed_contacts is a sequence of names, not one string")
         allowed = frozenset(allowed_contacts)
+        if swept is not None and not isinstance(swept, bool):
+            raise TypeError(f"swept must be True, False or None, got {swept!r}")
+        sweeps = self.swept if swept is None else swept
         world = self.world
         snap = world.snapshot()
         try:
@@ -262,13 +266,64 @@ class ProjectedWorldModel:
                     contacts = [c for c in world.robot_collisions() if not _allowed(c, allowed)]
                     if contacts:
                         return ProbeResult(False, _in_collision(arm, i, contacts), i)
-                    if self.swept:
-                        swept = self._swept(arm, wp, torso, start, allowed)
-                        if swept:
-                            return ProbeResult(False, _swept_into(arm, i, swept), i)
+                    if sweeps:
+                        hits = self._swept(arm, wp, torso, start, allowed)
+                        if hits:
+                            return ProbeResult(False, _swept_into(arm, i, hits), i)
             return ProbeResult(True)
         finally:
             world.restore(snap)
+
+    def probe_arm_configuration(
+        self,
+        left: Sequence[float] | None = None,
+        right: Sequence[float] | None = None,
+        *,
+        allowed_contacts: Sequence[str] = (),
+    ) -> ProbeResult:
+        """Would moving the arms to these joint values (``left``/``right``, 7 each; None:
+        that arm stays) sweep the robot or what it holds through a free object (other
+        than ``allowed_contacts`` and those it touches where the motion starts or ends)?
+        The path is the real controller's for a configuration move
+        (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
+        around free objects where it can be), in this world. The failure is
+        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``). The world
+        is restored. Wrong joint values: ValueError; allowed_contacts one string:
+        TypeError. Deliberate addition: CRAM never checked a park (``position-arms``)."""
+        goals = {a: q for a, q in (("left", left), ("right", right)) if q is not None}
+        if isinstance(allowed_contacts, str):
+            raise TypeError("allowed_contacts is a sequence of names, not one string")
+        allowed = frozenset(allowed_contacts)
+        world = self.world
+        snap = world.snapshot()
+        try:
+            arms = sorted(goals)
+            if not arms:
+                return ProbeResult(True)
+            torso = world.torso_height
+            start = {a: world.arm_joints(a) for a in arms}
+            free = {n for n in world.objects if n not in world.attachments} - allowed
+            others = free - _touched(world, free)
+            world.move_joints(**goals)  # ValueError for wrong values
+            others -= _touched(world, others)
+            if not others:
+                return ProbeResult(True)
+            path = controller_path(world, "move-joints", arms, goals, torso, start)
+            hits = sorted(swept_objects(world, path, others))
+        finally:
+            world.restore(snap)
+        if hits:
+            return ProbeResult(
+                False,
+                ManipulationGoalInCollision(
+                    f"moving the {' and '.join(arms)} arm(s) to "
+                    f"{'their' if len(arms) > 1 else 'its'} configuration sweeps through "
+                    f"{', '.join(hits)}",
+                    arms=tuple(arms),
+                    swept=tuple(hits),
+                ),
+            )
+        return ProbeResult(True)
 
     def _swept(
         self,
