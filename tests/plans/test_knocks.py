@@ -67,3 +67,62 @@ def test_checking_the_waypoints_only_pushes_the_neighbour(mrun: Any) -> None:
     assert "cup-1" in held
     assert moved > 0.01
 
+
+
+# ---------------------------------------------------------------- parking (test double)
+def _scripted_park_probe(world: Any, ok: bool) -> list[dict[str, Any]]:
+    from executive import ManipulationGoalInCollision, ProbeResult
+
+    calls: list[dict[str, Any]] = []
+
+    def probe(**kw: Any) -> ProbeResult:
+        calls.append(kw)
+        if ok:
+            return ProbeResult(True)
+        return ProbeResult(False, ManipulationGoalInCollision("sweeps through bowl-1"))
+
+    world.probe_arm_configuration = probe
+    return calls
+
+
+def test_a_park_that_would_sweep_through_an_object_backs_off_first(cup_world: Any) -> None:
+    from conftest import make_robot
+
+    from executive import knowledge
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    calls = _scripted_park_probe(cup_world, ok=False)
+    robot.run(park_clear)
+    assert calls == [
+        {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
+    ]
+    (drive,) = robot.calls("navigation")  # the back-off, then the park
+    assert drive.reference().arguments["pose"].isclose(Pose((-0.25, 0.0, 0.0)))
+    (park,) = robot.calls("arms")
+    assert park.reference().arguments["right"] == knowledge.arm_configuration("carry", "right")
+
+
+def test_a_clear_park_parks_where_the_robot_stands(cup_world: Any) -> None:
+    from conftest import make_robot
+
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    calls = _scripted_park_probe(cup_world, ok=True)
+    robot.run(park_clear, "park")
+    assert len(calls) == 1
+    assert robot.calls("navigation") == []
+    assert len(robot.calls("arms")) == 1
+
+
+def test_a_world_model_without_the_park_probe_just_parks(cup_world: Any) -> None:
+    from conftest import make_robot
+
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    assert not hasattr(cup_world, "probe_arm_configuration")
+    robot.run(park_clear)
+    assert robot.calls("navigation") == []
+    assert len(robot.calls("arms")) == 1

@@ -107,3 +107,58 @@ def test_the_rejected_reach_really_pushes_the_neighbour(pair: tuple[World, World
 def test_swept_must_be_a_bool(pair: tuple[World, World]) -> None:
     with pytest.raises(TypeError, match="swept must be True or False"):
         ProjectedWorldModel(pair[1], swept="yes")  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ configuration moves
+CARRY = {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
+
+
+def _hand_around_the_cup(world: World) -> None:
+    """The right hand at the cup's back grasp pose, the gripper open (a failed grip that
+    did not back out): a park from here sweeps the hand through the cup."""
+    world.drive(SINK_NAV)
+    world.gripper(0.09, "right")
+    for pose in _back_grasp(world)[:3]:
+        world.move_tcp(right=pose)
+
+
+def test_a_park_sweeping_through_an_object_is_rejected(pair: tuple[World, World]) -> None:
+    _true, belief = pair
+    _hand_around_the_cup(belief)
+    model = ProjectedWorldModel(belief)
+    before = _state(belief)
+    result = model.probe_arm_configuration(**CARRY)
+    assert not result.ok
+    assert isinstance(result.failure, ManipulationGoalInCollision)
+    assert result.failure.details["swept"] == (CUP,)
+    assert _state(belief) == before
+    assert model.probe_arm_configuration(left=CARRY["left"]).ok  # the left arm is clear
+    assert model.probe_arm_configuration(**CARRY, allowed_contacts=[CUP]).ok
+    assert model.probe_arm_configuration().ok  # nothing moves
+    with pytest.raises(ValueError, match="7 joint values"):
+        model.probe_arm_configuration(left=(0.0,))
+    with pytest.raises(TypeError, match="not one string"):
+        model.probe_arm_configuration(**CARRY, allowed_contacts=CUP)
+
+
+def test_the_rejected_park_really_pushes_the_object(pair: tuple[World, World]) -> None:
+    true, belief = pair
+    start = true.object_pose(CUP)
+
+    async def main() -> None:
+        async with with_real_robot(true, belief, FaultProfile.none(), rules=None):
+            await perform(a.motion(type="going", pose=SINK_NAV))
+            await perform(a.motion(type="moving-gripper-joint", gripper="right", joint_angle=0.09))
+            for pose in _back_grasp(belief)[:3]:
+                await perform(a.motion(type="moving-tcp", right_pose=pose))
+            assert math.dist(true.object_pose(CUP).position, start.position) < 0.01
+            await perform(
+                a.motion(
+                    type="moving-arm-joints",
+                    left_joint_states=CARRY["left"],
+                    right_joint_states=CARRY["right"],
+                )
+            )
+
+    cpl.run(main, clock=MockClock())
+    assert math.dist(true.object_pose(CUP).position, start.position) > 0.01
