@@ -126,3 +126,75 @@ def test_a_world_model_without_the_park_probe_just_parks(cup_world: Any) -> None
     robot.run(park_clear)
     assert robot.calls("navigation") == []
     assert len(robot.calls("arms")) == 1
+
+
+# ------------------------------------------------------------- placing (test double)
+def _held_cup_placing(cup_world: Any) -> tuple[Any, Any]:
+    from conftest import make_robot
+    from test_plans_fake import perceived_cup  # type: ignore[import-not-found]
+
+    robot = make_robot(cup_world)
+    robot.run(perform, an.action(type="picking-up", object=perceived_cup(cup_world), arm="right"))
+    cup_world.probe_calls["arm"].clear()
+    target = Pose((0.6, 0.1, 0.8), frame="base_footprint")
+    return robot, an.action(type="placing", target=a.location(pose=target))
+
+
+def _swept_failure() -> Any:
+    from executive import ManipulationGoalInCollision, ProbeResult
+
+    return ProbeResult(
+        False, ManipulationGoalInCollision("sweeps through bowl-1", swept=("bowl-1",)), 0
+    )
+
+
+def test_placing_prefers_a_solution_that_sweeps_through_nothing(cup_world: Any) -> None:
+    from plans.checks import check_placing_collisions
+
+    robot, placing = _held_cup_placing(cup_world)
+    cup_world.fail_probe["arm"] = {1: _swept_failure()}  # the first yaw sweeps
+
+    async def check() -> Any:
+        return check_placing_collisions(placing).reference().arguments
+
+    chosen = robot.run(check)
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == 2  # the first swept; the second passed and was taken
+    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
+    assert calls[1] == (chosen["arm"], probed)
+
+
+def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
+    cup_world: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    from plans.checks import check_placing_collisions
+
+    robot, placing = _held_cup_placing(cup_world)
+    # both solutions of a target pose (it and its yaw + pi) sweep
+    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in (1, 2)}
+
+    async def check() -> Any:
+        return check_placing_collisions(placing).reference().arguments
+
+    with caplog.at_level(logging.WARNING, logger="plans.checks"):
+        chosen = robot.run(check)
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == 3  # 2 swept, then the first one again, its waypoints only
+    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
+    assert calls[2] == calls[0] == (chosen["arm"], probed)
+    assert any("every solution sweeps" in r.getMessage() for r in caplog.records)
+
+
+def test_placing_does_not_fall_back_past_a_real_collision(cup_world: Any) -> None:
+    from executive import ObjectUnreachable
+    from plans.checks import check_placing_collisions
+
+    robot, placing = _held_cup_placing(cup_world)
+    cup_world.fail_probe["arm"] = {n: True for n in (1, 2)}  # unreachable, not swept
+
+    async def check() -> Any:
+        return check_placing_collisions(placing)
+
+    with pytest.raises(ObjectUnreachable):
+        robot.run(check)
+    assert len(cup_world.probe_calls["arm"]) == 2  # no second pass
