@@ -129,12 +129,15 @@ class WorldProbes(Protocol):
         gripper_opening: float | None = None,
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
+        swept: bool | None = None,
     ) -> ProbeResult:
         """Move ``arm``'s tool frame through ``waypoints`` (IK with torso resampling) from
         ``robot_pose`` (default: where the robot is). A waypoint fails if IK does not reach
         it, or, where ``check_collisions`` is true for it, if the robot then touches
         anything but its attached objects and the ``allowed_contacts`` (object or link
-        names)."""
+        names). ``swept``: whether the path the arm takes *between* checked waypoints
+        must not sweep through objects either (None: the world model's default; a world
+        model that cannot tell checks the waypoints only)."""
         ...
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:

@@ -242,6 +242,7 @@ class InMemoryWorld:
         gripper_opening: float | None = None,
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
+        swept: bool | None = None,
     ) -> ProbeResult:
         self.probe_calls["arm"].append((arm, tuple(waypoints)))
         scripted = self._probe_failure("arm", ManipulationPoseUnreachable)

@@ -32,6 +32,7 @@ __all__ = [
     "object_label",
     "perform_ignoring",
     "retry_ledger",
+    "tally",
     "to_base",
     "tool_frame",
     "translating_designator_errors",
@@ -82,6 +83,15 @@ def retry_ledger() -> Iterator[Counter[str]]:
         yield ledger
     finally:
         _LEDGER.reset(token)
+
+
+def tally(name: str) -> None:
+    """Count one ``name`` in the ledger of the running context (:func:`retry_ledger`),
+    if any: for what a plan ignores or gives up on purpose, so it is counted, not
+    swallowed (e.g. an object on the floor out of reach)."""
+    ledger = _LEDGER.get()
+    if ledger is not None:
+        ledger[name] += 1
 
 
 async def perform_ignoring(

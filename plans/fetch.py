@@ -4,15 +4,24 @@ CRAM's nested failure handling and retry counts:
 =================  ==========================================  ============================
 action             retries (HEAD)                              raises when exhausted
 =================  ==========================================  ============================
-fetching           10 relocations, 1 regrasp, 30 pick checks   object-unfetchable
+fetching           10 relocations, 1 regrasp, 60 pick checks   object-unfetchable
 =================  ==========================================  ============================
 
 Deliberate difference from CRAM: the base backs off (:func:`plans.navigation.back_off`)
 before the arms are parked after the pick.
+
+Deliberate addition (no CRAM plan does this): :func:`search_floor` looks for an object
+that is no longer where it was believed (dropped, or knocked off a counter) on the floor
+around that place; ``transport`` calls it, and ``fetch`` then picks it up from the floor
+(the IK lowers the torso; top and side grasps as anywhere else). An object seen on the
+floor that no base pose, arm and grasp can reach fails with
+:class:`ObjectUnreachableOnFloor` (logged, and counted as ``floor-unreachable``).
 """
 
 from __future__ import annotations
 
+import logging
+import math
 from collections.abc import Iterator
 from typing import Any
 
@@ -25,12 +34,15 @@ from executive import (
     ManipulationLowLevelFailure,
     NavigationGoalInCollision,
     ObjectDesignator,
+    ObjectNowhereToBeFound,
     ObjectUnfetchable,
     ObjectUnreachable,
     PerceptionLowLevelFailure,
+    Pose,
     SolutionCursor,
     a,
     an,
+    current_environment,
     perform,
     retry_scope,
     rule,
@@ -39,14 +51,41 @@ from executive import (
 from ._common import (
     CountedRetries,
     object_label,
+    tally,
     translating_designator_errors,
 )
 from ._designators import ROBOT, _check_places, _object
 from .atomic import park_arms
 from .checks import check_picking_up_collisions
-from .navigation import back_off
+from .navigation import back_off, park_clear
+from .search import arms_out_of_view, search_for_object
 
-__all__ = ["FETCH_RELOCATION_FAILURES", "fetch"]
+__all__ = [
+    "FETCH_RELOCATION_FAILURES",
+    "FLOOR_HEIGHT",
+    "FLOOR_SEARCH_OFFSETS",
+    "ObjectUnreachableOnFloor",
+    "fetch",
+    "floor_base_poses",
+    "search_floor",
+]
+
+log = logging.getLogger(__name__)
+
+#: Below this height (m, map) an object lies on the floor.
+FLOOR_HEIGHT = 0.3
+#: Where :func:`search_floor` looks, around the object's last believed position (m, map
+#: x/y offsets; the spots are on the floor): there first, then 0.4 m around it.
+FLOOR_SEARCH_OFFSETS = ((0.0, 0.0), (-0.4, 0.0), (0.0, -0.4), (0.0, 0.4), (0.4, 0.0))
+#: The height (m) of a floor spot the robot looks at.
+FLOOR_SPOT_Z = 0.05
+
+
+class ObjectUnreachableOnFloor(ObjectUnfetchable):
+    """An object lying on the floor that no base pose, arm and grasp could pick up (an
+    ``object-unfetchable``). Deliberate addition: CRAM never fetched from the floor."""
+
+    default_message = "Object on the floor out of reach."
 
 
 # ------------------------------------------------------------------------------ fetching
@@ -64,8 +103,10 @@ async def fetch(
     ``looking-high-level-failure``, ``perception-low-level-failure``,
     ``object-unreachable`` or ``manipulation-low-level-failure`` go to the next base pose.
     Its body: navigate, turn towards the object, then the regrasp scope (1 retry, parks
-    the arms on ``gripper-low-level-failure``; exhausted -> ``object-unreachable``): detect,
-    check the picking-up solutions (:func:`check_picking_up_collisions`, 30) and pick up.
+    the arms on ``gripper-low-level-failure``, backing off first if the belief says the
+    park would sweep through a neighbour (:func:`plans.navigation.park_clear`); exhausted
+    -> ``object-unreachable``): detect, check the picking-up solutions
+    (:func:`check_picking_up_collisions`, 60) and pick up.
     Raises ``ObjectUnfetchable`` when relocations run out (and for designator errors).
     Parks the arms and returns the newest object designator."""
 
@@ -75,11 +116,14 @@ async def fetch(
     async def body() -> ObjectDesignator:
         name = object_designator.current().get("name")
         object_pose = a.location(of_item_object=name).reference()
-        base_poses = SolutionCursor(
-            robot_location.current()
-            if robot_location is not None
-            else a.location(reachable_for=ROBOT, location=a.location(pose=object_pose), arm=arm)
-        )
+        on_floor = object_pose.position[2] < FLOOR_HEIGHT
+        if robot_location is not None:
+            where = robot_location.current()
+        elif on_floor:
+            where = a.location(among=floor_base_poses(object_pose))
+        else:
+            where = a.location(reachable_for=ROBOT, location=a.location(pose=object_pose), arm=arm)
+        base_poses = SolutionCursor(where)
 
         @retry_scope(
             FETCH_RELOCATION_FAILURES,
@@ -89,13 +133,15 @@ async def fetch(
         )
         async def from_here() -> None:
             await perform(an.action(type="navigating", location=base_poses.current))
+            if on_floor:  # the forearms in ``carry`` hide the floor next to the base
+                await arms_out_of_view()
             await perform(an.action(type="turning-towards", target=a.location(pose=object_pose)))
 
             @retry_scope(
                 GripperLowLevelFailure,
                 None,
                 CountedRetries(1, "regrasps"),
-                before_retry=park_arms,
+                before_retry=park_clear,
                 rethrow=lambda _f: ObjectUnreachable(object=object_label(object_designator)),
             )
             async def pick() -> None:
@@ -116,7 +162,19 @@ async def fetch(
         await park_arms()
         return object_designator.current()
 
-    result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
+    try:
+        result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
+    except ObjectUnfetchable as failure:
+        height = _believed_height(object_designator)
+        if height is None or height >= FLOOR_HEIGHT:
+            raise
+        log.warning(
+            "%s lies on the floor out of reach (%.2f m high)",
+            object_label(object_designator),
+            height,
+        )
+        tally("floor-unreachable")
+        raise ObjectUnreachableOnFloor(object=object_label(object_designator)) from failure
     return result
 
 
@@ -128,6 +186,83 @@ FETCH_RELOCATION_FAILURES = (
     ObjectUnreachable,
     ManipulationLowLevelFailure,
 )
+
+
+#: Where the base stands to pick an object up from the floor, in the object's frame
+#: turned to the base's yaw: this far behind it (m) and this far to either side, so that
+#: the arm on that side reaches down next to the base (the ``reachable-for`` costmap is
+#: made for counter heights, from where the floor is out of reach).
+FLOOR_PICK_DISTANCE = 0.5
+FLOOR_PICK_SIDE = 0.2
+#: Base yaws (around the object) of the floor base poses.
+FLOOR_PICK_YAWS = 16
+
+
+def floor_base_poses(object_pose: Pose) -> tuple[Pose, ...]:
+    """Base poses from which an arm can reach an object on the floor at ``object_pose``
+    (map): around it at :data:`FLOOR_PICK_YAWS` yaws, the object
+    :data:`FLOOR_PICK_DISTANCE` ahead and :data:`FLOOR_PICK_SIDE` to the left or right,
+    nearest to the robot first (the navigation check drops those in collision)."""
+    ox, oy = object_pose.position[0], object_pose.position[1]
+    robot = current_environment().world.robot_pose().position
+    poses = []
+    for k in range(FLOOR_PICK_YAWS):
+        yaw = 2 * math.pi * k / FLOOR_PICK_YAWS
+        c, s = math.cos(yaw), math.sin(yaw)
+        for side in (FLOOR_PICK_SIDE, -FLOOR_PICK_SIDE):
+            x = ox - c * FLOOR_PICK_DISTANCE + s * side
+            y = oy - s * FLOOR_PICK_DISTANCE - c * side
+            poses.append(Pose.from_xyz_yaw(x, y, 0.0, yaw))
+    poses.sort(key=lambda p: math.dist(p.position[:2], robot[:2]))
+    return tuple(poses)
+
+
+def _believed_height(object_designator: ObjectDesignator) -> float | None:
+    """The height (m, map) at which the world model believes the object is, or None when
+    it is not known by name."""
+    name = object_designator.current().get("name")
+    if not isinstance(name, str):
+        return None
+    try:
+        return float(current_environment().world.object_pose(name).position[2])
+    except (LookupError, cpl.PlanFailure):
+        return None
+
+
+@cpl.plan(name="search-floor")
+async def search_floor(object_designator: ObjectDesignator, failure: BaseException) -> Any:
+    """Look for an object that was not where it was believed (``failure``: why the
+    caller gave up on it there) on the floor around its last believed position: the
+    spots of :data:`FLOOR_SEARCH_OFFSETS` in turn, each a ``searching`` with its own
+    torso retry and no other sample (a ``floor-search`` retry per further spot). Returns
+    the perceived designator. Not found anywhere, seen but not on the floor (below
+    :data:`FLOOR_HEIGHT`), or the object is not known by name (a designator never
+    perceived): ``failure`` is raised again. Deliberate addition: no
+    CRAM plan searches the floor; a dropped or knocked-off object was lost for good."""
+    name = object_designator.current().get("name")
+    height = _believed_height(object_designator)
+    if height is None:
+        raise failure
+    near = current_environment().world.object_pose(str(name))
+    x, y = near.position[0], near.position[1]
+    spots = [Pose((x + dx, y + dy, FLOOR_SPOT_Z)) for dx, dy in FLOOR_SEARCH_OFFSETS]
+    more = CountedRetries(len(spots) - 1, "floor-search")
+    for i, spot in enumerate(spots):
+        if i and not more.do_retry():
+            break
+        try:
+            found = await search_for_object(object_designator, a.location(pose=spot), retries=0)
+        except ObjectNowhereToBeFound:
+            continue
+        height = _believed_height(found)
+        if height is None or height >= FLOOR_HEIGHT:
+            # seen, but not on the floor (still on its counter): nothing new to try
+            log.info("%s seen from the floor search, but not on the floor", name)
+            raise failure
+        log.info("%s found on the floor near %r", name, spot)
+        return found
+    log.warning("%s not on the floor around (%.2f, %.2f) either", name, x, y)
+    raise failure
 
 
 def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:

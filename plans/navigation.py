@@ -36,6 +36,7 @@ from executive import (
     a,
     an,
     current_environment,
+    knowledge,
     perform,
     retry_scope,
     rule,
@@ -59,6 +60,7 @@ __all__ = [
     "BaseStoppedShort",
     "back_off",
     "go_without_collisions",
+    "park_clear",
     "turn_towards",
 ]
 
@@ -78,8 +80,9 @@ async def go_without_collisions(location: LocationDesignator) -> None:
     Deliberate difference from CRAM, which ignored the going's failures: the plan went on
     from wherever the base had stopped (e.g. short of the island, where every placing
     then failed IK), and the caller's relocation scope, which only retries on
-    ``navigation-goal-in-collision``, never tried its next base pose."""
-    await park_arms()
+    ``navigation-goal-in-collision``, never tried its next base pose. The park before
+    driving is :func:`park_clear` (CRAM parked wherever the robot stood)."""
+    await park_clear()
     checked = check_navigating_collisions(location)
     goal: Pose = to_map(checked.reference())
 
@@ -200,3 +203,22 @@ async def back_off(distance: float = BACK_OFF) -> None:
         await perform(an.action(type="going", target=a.location(pose=goal)))
     except NavigationLowLevelFailure as failure:
         log.info("backing off stopped short: %s", failure)
+
+
+async def park_clear(configuration: str = "carry") -> None:
+    """Park both arms (:func:`plans.atomic.park_arms`), backing the base off first
+    (:func:`back_off`) when the belief says the park from here would sweep the arms (or
+    what they hold) through an object: the world model's ``probe_arm_configuration``
+    checks the path the arm controller will take. A world model without that probe (a
+    test double) is not asked. Deliberate addition: CRAM parked wherever the robot stood
+    (after a failed grip, before driving off), and from next to a counter the park swept
+    the neighbours off it (a cup knocked to the floor by a regrasp's park)."""
+    world = current_environment().world
+    probe = getattr(world, "probe_arm_configuration", None)
+    if probe is not None:
+        joints = {arm: knowledge.arm_configuration(configuration, arm) for arm in knowledge.ARMS}
+        result = probe(left=joints["left"], right=joints["right"])
+        if not result.ok:
+            log.info("backing off before parking: %s", result.failure)
+            await back_off()
+    await park_arms(configuration)

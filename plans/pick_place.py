@@ -247,6 +247,28 @@ def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:
     )
 
 
+#: How high (m) above its first reach waypoint an approach from above starts.
+APPROACH_HEIGHT = 0.2
+
+
+def _approaches(reach: Sequence[Pose]) -> list[tuple[Pose, ...]]:
+    """The reach waypoints as given, then the same preceded by a waypoint
+    :data:`APPROACH_HEIGHT` straight above the first (same orientation): the hand comes
+    in over the neighbours and descends onto the reach, instead of sweeping straight
+    from where the arm is. Deliberate addition (CRAM reached straight for its first
+    waypoint): the arm probes check the path the arm sweeps
+    (:meth:`projection.ProjectedWorldModel.probe_arm_trajectory`), and where the
+    straight reach would sweep through a neighbour, the approach from above is the next
+    solution of the same arm and grasp."""
+    first = reach[0]
+    above = Pose(
+        (first.position[0], first.position[1], first.position[2] + APPROACH_HEIGHT),
+        first.orientation,
+        first.frame,
+    )
+    return [tuple(reach), (above, *reach)]
+
+
 @rule("action", "picking-up", keys=("object", "arm", "grasp"))
 def _picking_up(d: Designator) -> Iterator[Any]:
     given = d.get("object")
@@ -277,19 +299,20 @@ def _picking_up(d: Designator) -> Iterator[Any]:
                 poses = knowledge.grasp_poses(otype, grasp_name, frame)
             except LookupError as exc:
                 raise DesignatorError(f"{d.short()}: {exc}", d) from None
-            yield (
-                pick_up,
-                {
-                    "object_designator": obj,
-                    "arm": arm,
-                    "grasp": grasp_name,
-                    "opening": info.opening,
-                    "effort": info.effort,
-                    "reach_poses": tuple(poses[:2]),
-                    "grasp_poses": (poses[2],),
-                    "lift_poses": tuple(poses[3:]),
-                },
-            )
+            for reach in _approaches(poses[:2]):
+                yield (
+                    pick_up,
+                    {
+                        "object_designator": obj,
+                        "arm": arm,
+                        "grasp": grasp_name,
+                        "opening": info.opening,
+                        "effort": info.effort,
+                        "reach_poses": reach,
+                        "grasp_poses": (poses[2],),
+                        "lift_poses": tuple(poses[3:]),
+                    },
+                )
 
 
 # ------------------------------------------------------------------------------- placing

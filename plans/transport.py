@@ -22,7 +22,9 @@ from executive import (
     Designator,
     LocationDesignator,
     ObjectDesignator,
+    ObjectNowhereToBeFound,
     ObjectUndeliverable,
+    ObjectUnfetchable,
     a,
     an,
     perform,
@@ -32,6 +34,7 @@ from executive import (
 from ._designators import ROBOT, _check_places, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
+from .fetch import ObjectUnreachableOnFloor, search_floor
 from .reasoning import ProjectedParameters, with_projected_task_tree
 
 __all__ = ["transport"]
@@ -48,8 +51,11 @@ async def transport(
     viewpoint_reasoning: bool = False,
 ) -> ObjectDesignator | None:
     """Access the container (if ``location`` is ``in`` one), search, fetch and deliver the
-    object; an ``object-undeliverable`` makes it drop the object at the sink. Search and
-    fetch failures propagate. Fetch and deliver run inside
+    object; an ``object-undeliverable`` makes it drop the object at the sink. An object
+    not found at ``location`` or not fetchable there is looked for on the floor around
+    where it was believed (:func:`plans.fetch.search_floor`; deliberate addition, no
+    CRAM plan does this), then fetched (from the floor) and delivered without projection;
+    otherwise search and fetch failures propagate. Fetch and deliver run inside
     :func:`~plans.reasoning.with_projected_task_tree` (``projection_runs`` imagined runs,
     the designator's ``projection-runs`` property, default 3; then the real one
     with the chosen base poses, arm, grasp and placing target) when
@@ -68,14 +74,17 @@ async def transport(
             an.action(type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE)
         )
     try:
-        found = await perform(
-            an.action(
-                type="searching",
-                object=object_designator,
-                location=location,
-                viewpoint_reasoning=viewpoint_reasoning,
+        try:
+            found = await perform(
+                an.action(
+                    type="searching",
+                    object=object_designator,
+                    location=location,
+                    viewpoint_reasoning=viewpoint_reasoning,
+                )
             )
-        )
+        except ObjectNowhereToBeFound as failure:
+            found = await search_floor(object_designator, failure)
 
         async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
             fetch_arm, fetch_location, to = arm, given.fetch_robot_location, target
@@ -116,12 +125,21 @@ async def transport(
             )
             return fetched if delivered else None
 
-        return await with_projected_task_tree(
-            fetch_and_deliver,
-            projection_runs,
-            enabled=projection_reasoning,
-            subject=found.current().get("name"),
-        )
+        try:
+            return await with_projected_task_tree(
+                fetch_and_deliver,
+                projection_runs,
+                enabled=projection_reasoning,
+                subject=found.current().get("name"),
+            )
+        except ObjectUnfetchable as failure:
+            if isinstance(failure, ObjectUnreachableOnFloor):
+                raise
+            # no longer where it was fetched from (dropped, or knocked off): the floor
+            found = await search_floor(found, failure)
+            return await with_projected_task_tree(
+                fetch_and_deliver, projection_runs, enabled=False
+            )
     finally:
         if not accessible:
             sealing = an.action(

@@ -35,9 +35,11 @@ __all__ = [
     "arm_path",
     "cartesian_path",
     "clear_ik",
+    "controller_path",
     "imagined_goal",
     "leg_seconds",
     "reroute_cartesian",
+    "swept_objects",
 ]
 
 Config = tuple[float, dict[str, tuple[float, ...]]]  # torso height, arm joints by arm
@@ -45,6 +47,9 @@ Config = tuple[float, dict[str, tuple[float, ...]]]  # torso height, arm joints 
 CARTESIAN_STEP = (0.02, 0.1)
 #: Samples per straight joint-space segment when checking an arm path for collisions.
 PATH_CHECK_SAMPLES = 12
+#: Largest joint (rad) or torso (m) step between two configurations that
+#: :func:`swept_objects` checks for contacts along a path.
+SWEEP_STEP = (0.08, 0.02)
 #: The raised-arm via configuration (shoulder lifted, elbow bent) the controller routes
 #: through when the straight path would hit a free object.
 RAISED_SHOULDER_LIFT = -0.45
@@ -395,3 +400,69 @@ class _ArmRouter:
         if down is not None:
             candidates.append(([begin, self.raised(self.start), down, end], False, True))
         return candidates
+
+
+def controller_path(
+    world: World,
+    command: str,
+    arms: Sequence[str],
+    args: Mapping[str, Any],
+    torso: float,
+    start: ArmConfig,
+) -> list[Config]:
+    """The configuration path the simulated controller follows for one arm motion
+    (``command`` "move-tcp" or "move-joints"), with the robot standing at the motion's
+    goal configuration (its IK solution or joint goal) and ``torso``/``start`` the
+    configuration it starts from: a ``move-tcp`` along the straight tool line, rerouted in
+    joint space when that line sweeps through a free object (:func:`reroute_cartesian`),
+    a configuration move routed around free objects (:func:`arm_path`). Both the real arms
+    module (in the true world) and projection's swept probe (in the belief) call it, so a
+    plan's check sees the path the arm will sweep. Leaves the robot at the start."""
+    goal = {a: world.arm_joints(a) for a in arms}
+    goal_torso = world.torso_height
+    world.move_torso(torso)
+    world.move_joints(**{a: start[a] for a in arms})
+    first: Config = (torso, {a: start[a] for a in arms})
+    last: Config = (goal_torso, goal)
+    if command == "move-tcp":
+        # The plan's waypoints assume the tool moves straight between them (a reach
+        # approaches its object along the grasp axis): follow that line.
+        path = cartesian_path(world, arms, args, first, last)
+        routed = reroute_cartesian(world, arms, path, start, goal)
+        if routed is not None:
+            path = [
+                (torso + (goal_torso - torso) * i / max(1, len(routed) - 1), c)
+                for i, c in enumerate(routed)
+            ]
+    else:
+        # Configuration moves (park, carry) are routed around free objects.
+        joints = arm_path(world, arms, start, goal) or []
+        path = [
+            (torso + (goal_torso - torso) * i / max(1, len(joints) - 1), c)
+            for i, c in enumerate(joints)
+        ]
+    world.move_torso(torso)
+    world.move_joints(**{a: start[a] for a in arms})
+    return path
+
+
+def swept_objects(world: World, path: Sequence[Config], others: set[str]) -> set[str]:
+    """The objects of ``others`` the robot (or what it holds) touches anywhere along
+    ``path``, its configurations joined by straight joint-space (and torso) segments as
+    :func:`along_configs` moves them, sampled at most :data:`SWEEP_STEP` apart. Empty
+    ``others``: nothing is checked. Leaves the robot at the path's last configuration."""
+    if not others or not path:
+        return set()
+    hit: set[str] = set()
+    world.move_torso(path[0][0])
+    world.move_joints(**path[0][1])
+    hit |= _touched(world, others)
+    for (t0, u), (t1, v) in itertools.pairwise(path):
+        joints = max((abs(q - p) for a in u for p, q in zip(u[a], v[a])), default=0.0)
+        n = max(1, math.ceil(max(joints / SWEEP_STEP[0], abs(t1 - t0) / SWEEP_STEP[1])))
+        for k in range(1, n + 1):
+            f = k / n
+            world.move_torso(t0 + f * (t1 - t0))
+            world.move_joints(**{a: [p + f * (q - p) for p, q in zip(u[a], v[a])] for a in u})
+            hit |= _touched(world, others)
+    return hit

@@ -25,14 +25,11 @@ from executive.failures import (
 )
 from executive.knowledge import ARM_PREFIX
 from projection._arm_planner import (
-    Config,
     along_configs,
-    arm_path,
-    cartesian_path,
     clear_ik,
+    controller_path,
     imagined_goal,
     leg_seconds,
-    reroute_cartesian,
 )
 from projection._base_planner import along_base, base_path
 from projection._process_modules import (
@@ -382,31 +379,7 @@ class RealArmsPM(RealProcessModule):
             clear_ik(world, arms, args, torso, start)
         else:
             move_arm_joints(world, args)
-        goal = {a: world.arm_joints(a) for a in arms}
-        goal_torso = world.torso_height
-        world.move_torso(torso)
-        world.move_joints(**{a: start[a] for a in arms})
-        first: Config = (torso, {a: start[a] for a in arms})
-        last: Config = (goal_torso, goal)
-        if command.command == "move-tcp":
-            # The plan's waypoints assume the tool moves straight between them (a reach
-            # approaches its object along the grasp axis): follow that line.
-            path = cartesian_path(world, arms, args, first, last)
-            routed = reroute_cartesian(world, arms, path, start, goal)
-            if routed is not None:
-                path = [
-                    (torso + (goal_torso - torso) * i / max(1, len(routed) - 1), c)
-                    for i, c in enumerate(routed)
-                ]
-        else:
-            # Configuration moves (park, carry) are routed around free objects.
-            joints = arm_path(world, arms, start, goal) or []
-            path = [
-                (torso + (goal_torso - torso) * i / max(1, len(joints) - 1), c)
-                for i, c in enumerate(joints)
-            ]
-        world.move_torso(torso)
-        world.move_joints(**{a: start[a] for a in arms})
+        path = controller_path(world, command.command, arms, args, torso, start)
         legs = [leg_seconds(u, v) for u, v in itertools.pairwise(path)]
         duration = sum(legs)
 

@@ -97,6 +97,7 @@ class RealWorldModel:
         gripper_opening: float | None = None,
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
+        swept: bool | None = None,
     ) -> ProbeResult:
         return self.belief.probe_arm_trajectory(
             arm,
@@ -105,6 +106,18 @@ class RealWorldModel:
             gripper_opening=gripper_opening,
             allowed_contacts=allowed_contacts,
             check_collisions=check_collisions,
+            swept=swept,
+        )
+
+    def probe_arm_configuration(
+        self,
+        left: Sequence[float] | None = None,
+        right: Sequence[float] | None = None,
+        *,
+        allowed_contacts: Sequence[str] = (),
+    ) -> ProbeResult:
+        return self.belief.probe_arm_configuration(
+            left, right, allowed_contacts=allowed_contacts
         )
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:

@@ -30,6 +30,7 @@ from executive.failures import (
     PerceptionObjectNotInWorld,
 )
 from executive.knowledge import ARM_PREFIX
+from projection._arm_planner import controller_path, swept_objects
 from projection._objects import object_type as _object_type
 from projection._world import Contact, World
 
@@ -39,6 +40,8 @@ __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
 DETACH_SETTLE_STEPS = 10
 #: How far (m) a placed object may move before the pose counts as unstable (CRAM: 0.2).
 STABILITY_THRESHOLD = 0.2
+#: Entries of a :class:`ProjectedWorldModel`'s memo of sweep checks before it is cleared.
+SWEEP_MEMO_SIZE = 4096
 #: How far (m) the footprints of a placed object and a neighbour may interpenetrate before
 #: the placing pose counts as overlapping it.
 OVERLAP_TOLERANCE = 0.005
@@ -74,10 +77,20 @@ class ProjectedWorldModel:
       world).
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: World, *, swept: bool = True) -> None:
         if not isinstance(world, World):
             raise TypeError(f"ProjectedWorldModel needs a projection.World, got {world!r}")
+        if not isinstance(swept, bool):
+            raise TypeError(f"swept must be True or False, got {swept!r}")
         self.world = world
+        #: Whether :meth:`probe_arm_trajectory` also checks the path the arm sweeps
+        #: between waypoints (the real controller's path), not the waypoints alone.
+        self.swept = swept
+        # sweep checks already made: (arm, start and goal configuration, waypoint, what the
+        # robot holds, the free objects' poses) -> the objects swept through; a probe
+        # repeated from the same state (the imagined runs, a check then its re-check)
+        # costs a lookup. Cleared when it reaches SWEEP_MEMO_SIZE entries.
+        self._sweeps: dict[tuple[Any, ...], list[str]] = {}
         c, robot = world.client, world.robot_body
         self._robot_links = frozenset(
             pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
@@ -195,6 +208,7 @@ class ProjectedWorldModel:
         gripper_opening: float | None = None,
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
+        swept: bool | None = None,
     ) -> ProbeResult:
         """Drive to ``robot_pose`` (if given; in collision -> ``NavigationPoseUnreachable``,
         index None), set the gripper opening (if given; out of range ->
@@ -203,7 +217,16 @@ class ProjectedWorldModel:
         ``ManipulationPoseUnreachable`` (no IK) or, where collisions are checked, with
         :class:`executive.ManipulationGoalInCollision` (``contacts=[...]``) when the robot
         or what it carries touches anything whose object, body or link name is not in
-        ``allowed_contacts``. The world is restored. Bad arguments raise
+        ``allowed_contacts``. Where collisions are checked and ``swept`` is on (None:
+        :attr:`swept`, on by default), the path the real arm controller follows *to* the waypoint
+        (:func:`projection._arm_planner.controller_path`: the straight tool line, rerouted
+        around free objects where it can be) must not sweep the robot or what it holds
+        through a free object either (other than ``allowed_contacts`` and those it
+        touches where that motion starts or ends): else
+        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``).
+        Deliberate addition: CRAM checked the waypoints only, and its arm moved between
+        them wherever its controller took it; the simulated real arm follows that path
+        and topples what it sweeps through. The world is restored. Bad arguments raise
         TypeError/ValueError."""
         arm = _arm(arm)
         wps = [_pose(p, f"waypoint {i}") for i, p in enumerate(waypoints)]
@@ -220,6 +243,9 @@ class ProjectedWorldModel:
         if isinstance(allowed_contacts, str):
             raise TypeError("allowed_contacts is a sequence of names, not one string")
         allowed = frozenset(allowed_contacts)
+        if swept is not None and not isinstance(swept, bool):
+            raise TypeError(f"swept must be True, False or None, got {swept!r}")
+        sweeps = self.swept if swept is None else swept
         world = self.world
         snap = world.snapshot()
         try:
@@ -231,6 +257,7 @@ class ProjectedWorldModel:
             except _PlanFailure as failure:
                 return ProbeResult(False, failure)
             for i, (wp, check) in enumerate(zip(wps, checks)):
+                torso, start = world.torso_height, {arm: world.arm_joints(arm)}
                 try:
                     world.move_tcp(**{arm: wp})
                 except _PlanFailure as failure:
@@ -239,9 +266,132 @@ class ProjectedWorldModel:
                     contacts = [c for c in world.robot_collisions() if not _allowed(c, allowed)]
                     if contacts:
                         return ProbeResult(False, _in_collision(arm, i, contacts), i)
+                    if sweeps:
+                        hits = self._swept(arm, wp, torso, start, allowed)
+                        if hits:
+                            return ProbeResult(False, _swept_into(arm, i, hits), i)
             return ProbeResult(True)
         finally:
             world.restore(snap)
+
+    def probe_arm_configuration(
+        self,
+        left: Sequence[float] | None = None,
+        right: Sequence[float] | None = None,
+        *,
+        allowed_contacts: Sequence[str] = (),
+    ) -> ProbeResult:
+        """Would moving the arms to these joint values (``left``/``right``, 7 each; None:
+        that arm stays) sweep the robot or what it holds through a free object (other
+        than ``allowed_contacts`` and those it touches where the motion starts or ends)?
+        The path is the real controller's for a configuration move
+        (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
+        around free objects where it can be), in this world. The failure is
+        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``). The world
+        is restored. Wrong joint values: ValueError; allowed_contacts one string:
+        TypeError. Deliberate addition: CRAM never checked a park (``position-arms``)."""
+        goals = {a: q for a, q in (("left", left), ("right", right)) if q is not None}
+        if isinstance(allowed_contacts, str):
+            raise TypeError("allowed_contacts is a sequence of names, not one string")
+        allowed = frozenset(allowed_contacts)
+        world = self.world
+        snap = world.snapshot()
+        try:
+            arms = sorted(goals)
+            if not arms:
+                return ProbeResult(True)
+            torso = world.torso_height
+            start = {a: world.arm_joints(a) for a in arms}
+            free = {n for n in world.objects if n not in world.attachments} - allowed
+            others = free - _touched(world, free)
+            world.move_joints(**goals)  # ValueError for wrong values
+            others -= _touched(world, others)
+            if not others:
+                return ProbeResult(True)
+            path = controller_path(world, "move-joints", arms, goals, torso, start)
+            hits = sorted(swept_objects(world, path, others))
+        finally:
+            world.restore(snap)
+        if hits:
+            return ProbeResult(
+                False,
+                ManipulationGoalInCollision(
+                    f"moving the {' and '.join(arms)} arm(s) to "
+                    f"{'their' if len(arms) > 1 else 'its'} configuration sweeps through "
+                    f"{', '.join(hits)}",
+                    arms=tuple(arms),
+                    swept=tuple(hits),
+                ),
+            )
+        return ProbeResult(True)
+
+    def _swept(
+        self,
+        arm: str,
+        waypoint: Pose,
+        torso: float,
+        start: dict[str, tuple[float, ...]],
+        allowed: frozenset[str],
+    ) -> list[str]:
+        """With the robot at a waypoint's IK goal: the free objects (not ``allowed``, not
+        touched where the motion starts or ends) that the real controller's path from
+        ``torso``/``start`` to here sweeps the arm (or what it holds) through, sorted.
+        The path is :func:`projection._arm_planner.controller_path` in this world, i.e.
+        what the arms module will follow if the world is as believed. Leaves the robot at
+        the goal configuration."""
+        world = self.world
+        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
+        free = {n for n in world.objects if n not in world.attachments} - allowed
+        key = (
+            arm,
+            _rounded(torso, *start[arm], goal_torso, *goal[arm]),
+            _rounded(
+                *world.arm_joints("left" if arm == "right" else "right"),
+                world.gripper_opening("left"),
+                world.gripper_opening("right"),
+            ),
+            _rounded(*waypoint.position, *waypoint.orientation),
+            waypoint.frame,
+            _rounded(*world.robot_pose().position, *world.robot_pose().orientation),
+            tuple(sorted(world.attachments.items())),
+            tuple(
+                (n, _rounded(*p.position, *p.orientation))
+                for n in sorted(free)
+                for p in (world.object_pose(n),)
+            ),
+        )
+        memo = self._sweeps
+        if key in memo:
+            return memo[key]
+        if len(memo) >= SWEEP_MEMO_SIZE:
+            memo.clear()
+        memo[key] = hits = self._swept_uncached(arm, waypoint, torso, start, free)
+        return hits
+
+    def _swept_uncached(
+        self,
+        arm: str,
+        waypoint: Pose,
+        torso: float,
+        start: dict[str, tuple[float, ...]],
+        free: set[str],
+    ) -> list[str]:
+        world = self.world
+        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
+        others = free - _touched(world, free)
+        if others:
+            world.move_torso(torso)
+            world.move_joints(**start)
+            others -= _touched(world, others)
+            world.move_torso(goal_torso)
+            world.move_joints(**goal)
+        if not others:
+            return []
+        path = controller_path(world, "move-tcp", [arm], {arm: waypoint}, torso, start)
+        hits = swept_objects(world, path, others)
+        world.move_torso(goal_torso)
+        world.move_joints(**goal)
+        return sorted(hits)
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         """Would an object of ``object_type`` released at ``pose`` stay within
@@ -299,6 +449,23 @@ class ProjectedWorldModel:
 def _allowed(contact: Contact, allowed: frozenset[str]) -> bool:
     names = {contact.body_a, contact.link_a, contact.body_b, contact.link_b} - {"object"}
     return not names.isdisjoint(allowed)
+
+
+def _rounded(*values: float) -> tuple[float, ...]:
+    return tuple(round(float(v), 4) for v in values)
+
+
+def _touched(world: World, names: set[str]) -> set[str]:
+    return {c.body_b for c in world.robot_collisions() if c.body_b in names}
+
+
+def _swept_into(arm: str, index: int, objects: list[str]) -> ManipulationGoalInCollision:
+    return ManipulationGoalInCollision(
+        f"{arm} arm on its way to waypoint {index} sweeps through {', '.join(objects)}",
+        arm=arm,
+        index=index,
+        swept=tuple(objects),
+    )
 
 
 def _in_collision(arm: str, index: int, contacts: list[Contact]) -> ManipulationGoalInCollision:

@@ -111,10 +111,21 @@ def test_picking_up_solutions_are_arm_major_grasp_minor(cup_world):
 
     async def solutions():
         action = an.action(type="picking-up", object=perceived_cup(cup_world))
-        return [(g.arguments["arm"], g.arguments["grasp"]) for g in action.solutions()]
+        return [
+            (g.arguments["arm"], g.arguments["grasp"], g.arguments["reach_poses"])
+            for g in action.solutions()
+        ]
 
     grasps = knowledge.grasps("cup")
-    assert robot.run(solutions) == [("right", g) for g in grasps] + [("left", g) for g in grasps]
+    found = robot.run(solutions)
+    # each arm and grasp twice: straight, then from above (plans.pick_place._approaches)
+    assert [(arm, g) for arm, g, _ in found] == [
+        (arm, g) for arm in ("right", "left") for g in grasps for _ in range(2)
+    ]
+    for (_, _, straight), (_, _, above) in zip(found[::2], found[1::2]):
+        assert len(straight) == 2 and above[1:] == straight
+        assert above[0].position[2] == pytest.approx(straight[0].position[2] + 0.2)
+        assert above[0].position[:2] == pytest.approx(straight[0].position[:2])
 
 
 def test_picking_up_sequence_and_attachment(cup_world):
@@ -264,18 +275,19 @@ def fetch(robot, world, **props):
 
 def test_fetching_relocates_when_no_pick_solution_is_reachable(cup_world):
     robot = make_robot(cup_world)
-    # all 10 (arm, grasp) fail: 2 arms x the cup's 5 grasps
-    cup_world.fail_probe["arm"] = {n: True for n in range(1, 11)}
+    # all 20 (arm, grasp, approach) fail: 2 arms x the cup's 5 grasps x straight/above
+    cup_world.fail_probe["arm"] = {n: True for n in range(1, 21)}
     fetch(robot, cup_world)
     drives = [m.reference().arguments["pose"] for m in robot.calls("navigation", "going")]
     # the second base pose, then the back-off before the arms are parked
     assert [round(p.position[0], 2) for p in drives] == [0.8, 0.7, 0.45]
-    assert cup_world.object_in_hand("right") == "cup-1"  # 11th probe: right arm, back grasp
+    assert cup_world.object_in_hand("right") == "cup-1"  # 21st probe: right arm, back grasp
 
 
 def test_fetching_uses_the_next_grasp_then_the_other_arm(cup_world):
     robot = make_robot(cup_world)
-    cup_world.fail_probe["arm"] = {n: True for n in range(1, 6)}  # right arm's 4 + left back
+    # the right arm's solutions, then the left back grasp's (each straight and from above)
+    cup_world.fail_probe["arm"] = {n: True for n in range(1, 11)}
     fetch(robot, cup_world)
     assert cup_world.object_in_hand("left") == "cup-1"
     attached = next(e for e in cup_world.events if isinstance(e, ObjectAttached))

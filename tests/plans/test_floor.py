@@ -1,0 +1,127 @@
+"""Fetching an object from the floor (issue 13; no CRAM plan does this): an object that
+was dropped or knocked off a counter is looked for on the floor and picked up from there
+(the arms out of the camera's view, base poses close enough for an arm to reach down),
+or fails with a typed failure that is logged and counted."""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+import pytest
+from conftest import make_robot
+
+import plans  # noqa: F401 - the action rules
+from executive import ObjectNowhereToBeFound, Pose, an, perform
+from executive.testing import InMemoryWorld
+from plans import retry_ledger
+from plans.demo import fetch_location, place_location
+from plans.fetch import (
+    FLOOR_PICK_DISTANCE,
+    FLOOR_PICK_SIDE,
+    ObjectUnreachableOnFloor,
+    search_floor,
+)
+from projection import FaultProfile, make_world_pair, settle, with_real_robot
+
+#: On the floor in front of the sink counter: where a cup knocked off it lands.
+ON_THE_FLOOR = Pose((1.0, 0.6, 0.06))
+
+
+def test_a_cup_on_the_floor_is_fetched_from_there_and_delivered(mrun: Any) -> None:
+    # the belief last saw the cup on the sink counter; it lies on the floor in front
+    true, belief = make_world_pair(0, belief_objects="exact")
+    try:
+        true.set_object_pose("cup-1", ON_THE_FLOOR)
+        settle(true, 240)
+        assert true.object_pose("cup-1").position[2] < 0.1
+
+        async def main() -> Any:
+            async with with_real_robot(true, belief, FaultProfile.none()):
+                return await perform(
+                    an.action(
+                        type="transporting",
+                        object=an.object(type="cup", name="cup-1"),
+                        location=fetch_location("cup"),
+                        target=place_location("cup", bowl_placed=False),
+                        projection_reasoning=False,
+                    )
+                )
+
+        delivered = mrun(main)
+        assert delivered is not None  # not dropped at the sink
+        (lx, ly, _), (hx, hy, hz) = true.link_aabb("kitchen_island_surface")
+        x, y, z = true.object_pose("cup-1").position
+        assert lx < x < hx and ly < y < hy and hz < z < hz + 0.1  # on the island, upright
+        assert "cup-1" not in true.attachments
+    finally:
+        true.close()
+        belief.close()
+
+
+def _floor_world() -> InMemoryWorld:
+    world = InMemoryWorld(
+        objects={"cup-1": Pose((1.3, 0.6, 0.05))},
+        types={"cup-1": "cup"},
+        links={
+            f"{p}_{link}": Pose((0.3, y, 1.0), frame="base_footprint")
+            for p, y in (("l", 0.2), ("r", -0.2))
+            for link in ("gripper_tool_frame", "wrist_roll_link")
+        },
+    )
+    return world
+
+
+def test_a_cup_on_the_floor_out_of_reach_is_a_counted_typed_failure(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    world = _floor_world()
+    robot = make_robot(world)
+    world.fail_probe["arm"] = {n: True for n in range(1, 10_000)}  # no grasp reaches it
+    cup = world.object_pose("cup-1")
+    counts: dict[str, int] = {}
+
+    async def go() -> None:
+        with retry_ledger() as ledger:
+            try:
+                await perform(
+                    an.action(
+                        type="fetching",
+                        object=an.object(
+                            type="cup",
+                            name="cup-1",
+                            pose=cup,
+                            transform=world.object_pose("cup-1", "base_footprint").to_transform(
+                                "cup-1"
+                            ),
+                        ),
+                    )
+                )
+            finally:
+                counts.update(ledger)
+
+    with caplog.at_level(logging.WARNING, logger="plans.fetch"):
+        with pytest.raises(ObjectUnreachableOnFloor):
+            robot.run(go)
+    assert counts["floor-unreachable"] == 1 and counts["relocations"] == 10
+    assert any("lies on the floor out of reach" in r.getMessage() for r in caplog.records)
+    # every base pose tried was one from which an arm reaches down to the floor
+    goals = [m.reference().arguments["pose"] for m in robot.calls("navigation", "going")]
+    assert goals
+    reach = math.hypot(FLOOR_PICK_DISTANCE, FLOOR_PICK_SIDE)
+    for goal in goals:
+        assert math.dist(goal.position[:2], cup.position[:2]) == pytest.approx(reach, abs=1e-6)
+
+
+def test_the_floor_search_needs_an_object_it_knows_by_name() -> None:
+    world = _floor_world()
+    robot = make_robot(world)
+    failure = ObjectNowhereToBeFound("not at the sink")
+
+    async def go() -> None:
+        await search_floor(an.object(type="cup"), failure)
+
+    with pytest.raises(ObjectNowhereToBeFound, match="not at the sink"):
+        robot.run(go)
+    assert robot.calls("navigation") == []  # nothing moved
