@@ -43,6 +43,7 @@ from ._rules import (
 from ._solutions import ActionGrounding, MotionCommand, ObjectData
 from ._world import (
     AABB,
+    ArmSweepProbe,
     ProbeResult,
     ProjectionWorld,
     SceneSetup,
@@ -88,6 +89,7 @@ __all__ = [
     "Imagination",
     "ProbeResult",
     "ProjectionWorld",
+    "ArmSweepProbe",
     "SceneSetup",
     "WorldModel",
     "WorldProbes",

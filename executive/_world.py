@@ -29,6 +29,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AABB",
+    "ArmSweepProbe",
     "ProbeResult",
     "ProjectionWorld",
     "SceneSetup",
@@ -143,6 +144,24 @@ class WorldProbes(Protocol):
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         """Would an object of ``object_type`` released at ``pose`` stay put (moved less than
         0.2 m after ~600 simulated steps)?"""
+        ...
+
+
+@runtime_checkable
+class ArmSweepProbe(Protocol):
+    """An optional probe (a world model that cannot tell simply lacks it; plans then skip
+    the check): would moving the arms to joint values sweep the robot, or what it holds,
+    through an object? ``projection``'s world models implement it with the real arm
+    controller's path."""
+
+    def probe_arm_configuration(
+        self,
+        left: Sequence[float] | None = None,
+        right: Sequence[float] | None = None,
+        *,
+        allowed_contacts: Sequence[str] = (),
+    ) -> ProbeResult:
+        """``left``/``right``: 7 joint values each, ``None``: that arm stays."""
         ...
 
 

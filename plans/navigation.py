@@ -24,6 +24,7 @@ from typing import Any
 
 import cpl
 from executive import (
+    ArmSweepProbe,
     Designator,
     DesignatorError,
     LocationDesignator,
@@ -214,10 +215,9 @@ async def park_clear(configuration: str = "carry") -> None:
     (after a failed grip, before driving off), and from next to a counter the park swept
     the neighbours off it (a cup knocked to the floor by a regrasp's park)."""
     world = current_environment().world
-    probe = getattr(world, "probe_arm_configuration", None)
-    if probe is not None:
+    if isinstance(world, ArmSweepProbe):
         joints = {arm: knowledge.arm_configuration(configuration, arm) for arm in knowledge.ARMS}
-        result = probe(left=joints["left"], right=joints["right"])
+        result = world.probe_arm_configuration(left=joints["left"], right=joints["right"])
         if not result.ok:
             log.info("backing off before parking: %s", result.failure)
             await back_off()

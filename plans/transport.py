@@ -137,9 +137,7 @@ async def transport(
                 raise
             # no longer where it was fetched from (dropped, or knocked off): the floor
             found = await search_floor(found, failure)
-            return await with_projected_task_tree(
-                fetch_and_deliver, projection_runs, enabled=False
-            )
+            return await with_projected_task_tree(fetch_and_deliver, projection_runs, enabled=False)
     finally:
         if not accessible:
             sealing = an.action(

@@ -116,9 +116,7 @@ class RealWorldModel:
         *,
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
-        return self.belief.probe_arm_configuration(
-            left, right, allowed_contacts=allowed_contacts
-        )
+        return self.belief.probe_arm_configuration(left, right, allowed_contacts=allowed_contacts)
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         return self.belief.probe_placing_stability(object_type, pose)

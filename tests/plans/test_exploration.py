@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -352,10 +353,12 @@ def test_the_floor_plan_shows_the_imagined_bases_the_chosen_run_and_the_true_rou
     try:
         draw_floor_plan(ax, [((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))], recorder.route, [row])
         plotted = {
-            c.get_gid(): [tuple(p) for p in c.get_offsets()] for c in ax.collections if c.get_gid()
+            c.get_gid(): [tuple(p) for p in np.asarray(c.get_offsets())]
+            for c in ax.collections
+            if c.get_gid()
         }
         (line,) = [ln for ln in ax.lines if ln.get_gid() == "route"]
-        drawn_route = list(zip(line.get_xdata(), line.get_ydata()))
+        drawn_route = list(zip(np.asarray(line.get_xdata()), np.asarray(line.get_ydata())))
     finally:
         plt.close(fig)
     for name in RUN_NAMES:

@@ -34,7 +34,7 @@ def _fetch_cup(mrun: Any, swept: bool) -> tuple[float, dict[str, str]]:
 
         async def main() -> None:
             async with with_real_robot(true, belief, FaultProfile.none()):
-                current_environment().world.belief.swept = swept
+                current_environment().world.belief.swept = swept  # type: ignore[attr-defined]
                 await perform(a.motion(type="going", pose=SINK_NAV))
                 await perform(a.motion(type="looking", pose=CUP_LOOK))
                 cup = await perform(a.motion(type="detecting", object=an.object(type="cup")))
@@ -68,7 +68,6 @@ def test_checking_the_waypoints_only_pushes_the_neighbour(mrun: Any) -> None:
     assert moved > 0.01
 
 
-
 # ---------------------------------------------------------------- parking (test double)
 def _scripted_park_probe(world: Any, ok: bool) -> list[dict[str, Any]]:
     from executive import ManipulationGoalInCollision, ProbeResult
@@ -94,9 +93,7 @@ def test_a_park_that_would_sweep_through_an_object_backs_off_first(cup_world: An
     robot = make_robot(cup_world)
     calls = _scripted_park_probe(cup_world, ok=False)
     robot.run(park_clear)
-    assert calls == [
-        {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
-    ]
+    assert calls == [{a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}]
     (drive,) = robot.calls("navigation")  # the back-off, then the park
     assert drive.reference().arguments["pose"].isclose(Pose((-0.25, 0.0, 0.0)))
     (park,) = robot.calls("arms")

@@ -21,6 +21,12 @@ BEHIND = Pose.from_xyz_yaw(0.55, 0.60, 0.0, 0.0)  # looks at the cup through the
 CLEAR = Pose.from_xyz_yaw(0.60, -0.10, 0.0, math.atan2(0.70, 0.85))  # from the side
 
 
+def _ann(task: Any) -> dict[str, Any]:
+    annotations = task.annotations
+    assert annotations is not None
+    return annotations
+
+
 def _names(root: cpl.Task, prefix: str) -> dict[str, cpl.Task]:
     out: dict[str, cpl.Task] = {}
     stack = [root]
@@ -66,7 +72,7 @@ def test_a_viewpoint_predicted_to_be_occluded_loses_to_a_clear_one():
     assert names == {"viewpoint-1": BEHIND, "viewpoint-2": CLEAR}
     imagined = _names(root, "imagine-viewpoint-")
     assert set(imagined) == {"imagine-viewpoint-1", "imagine-viewpoint-2"}
-    seen = {n: t.annotations["imagined"].value for n, t in imagined.items()}
+    seen = {n: _ann(t)["imagined"].value for n, t in imagined.items()}
     # the box hides the stand-in from behind it; from the side it is seen
     assert seen == {"imagine-viewpoint-1": 0, "imagine-viewpoint-2": 1}
     chosen = _names(root, "chosen-")
@@ -102,12 +108,12 @@ def test_the_search_chooses_its_viewpoint_by_projection_and_finds_the_cup():
     assert found.get("name") == "cup-1"
     imagined = _names(root, "imagine-viewpoint-")
     assert len(imagined) >= 2
-    values = [t.annotations["imagined"].value for t in imagined.values()]
+    values = [_ann(t)["imagined"].value for t in imagined.values()]
     (chosen,) = _names(root, "chosen-viewpoint-").values()
     best = max(v for v in values if v is not None)
     assert best == 1
     winner = imagined["imagine-" + chosen.name.removeprefix("chosen-")]
-    assert winner.annotations["imagined"].value == best
+    assert _ann(winner)["imagined"].value == best
 
 
 def test_without_an_imagination_that_can_spawn_the_search_navigates_as_before():

@@ -74,17 +74,21 @@ def test_a_reach_sweeping_through_a_neighbour_is_rejected(pair: tuple[World, Wor
     assert "sweeps through cereal-9" in str(result.failure)
     assert _state(belief) == before  # the world is restored
     # an allowed contact is not a sweep failure
-    assert ProjectedWorldModel(belief).probe_arm_trajectory(
-        "right", poses, allowed_contacts=[CUP, NEIGHBOUR]
-    ).ok
+    assert (
+        ProjectedWorldModel(belief)
+        .probe_arm_trajectory("right", poses, allowed_contacts=[CUP, NEIGHBOUR])
+        .ok
+    )
 
 
 def test_without_the_neighbour_the_same_reach_passes(pair: tuple[World, World]) -> None:
     _true, belief = pair
     belief.drive(SINK_NAV)
-    assert ProjectedWorldModel(belief).probe_arm_trajectory(
-        "right", _back_grasp(belief), allowed_contacts=[CUP]
-    ).ok
+    assert (
+        ProjectedWorldModel(belief)
+        .probe_arm_trajectory("right", _back_grasp(belief), allowed_contacts=[CUP])
+        .ok
+    )
 
 
 def test_the_rejected_reach_really_pushes_the_neighbour(pair: tuple[World, World]) -> None:
@@ -127,7 +131,7 @@ def test_a_park_sweeping_through_an_object_is_rejected(pair: tuple[World, World]
     _hand_around_the_cup(belief)
     model = ProjectedWorldModel(belief)
     before = _state(belief)
-    result = model.probe_arm_configuration(**CARRY)
+    result = model.probe_arm_configuration(left=CARRY["left"], right=CARRY["right"])
     assert not result.ok
     assert isinstance(result.failure, ManipulationGoalInCollision)
     assert result.failure.details["swept"] == (CUP,)
