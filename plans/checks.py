@@ -151,15 +151,7 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
         while current is not None:
             args = dict(cast(Any, current.reference()).arguments)
             obj = args["object_designator"]
-            waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
-            checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
-            checks += [True] * len(args["retract_poses"])
-            result = world.probe_arm_trajectory(
-                args["arm"],
-                waypoints,
-                allowed_contacts=(object_name(obj),),
-                check_collisions=checks,
-            )
+            result = _probe_placing(world, args)
             if result.ok:
                 return current
             log.info("placing with %s: %s", args["arm"], _failure(result))
@@ -174,16 +166,7 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
         raise ObjectUnreachable(str(error), object=obj) from error
     for member in swept_only:
         args = dict(cast(Any, member.reference()).arguments)
-        waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
-        checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
-        checks += [True] * len(args["retract_poses"])
-        result = world.probe_arm_trajectory(
-            args["arm"],
-            waypoints,
-            allowed_contacts=(object_name(obj),),
-            check_collisions=checks,
-            swept=False,
-        )
+        result = _probe_placing(world, args, swept=False)
         if result.ok:
             log.warning(
                 "placing with %s: every solution sweeps through an object; taking one "
@@ -193,6 +176,23 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
             return member
     assert first is not None
     raise ObjectUnreachable(f"placing: {_failure(first)}", object=obj) from first.failure
+
+
+def _probe_placing(
+    world: ProjectionWorld, args: dict[str, Any], swept: bool | None = None
+) -> ProbeResult:
+    """Probe a placing grounding's reach, put and retract waypoints (the put ones not for
+    collisions: the object touches its support there)."""
+    waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
+    checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
+    checks += [True] * len(args["retract_poses"])
+    return world.probe_arm_trajectory(
+        args["arm"],
+        waypoints,
+        allowed_contacts=(object_name(args["object_designator"]),),
+        check_collisions=checks,
+        swept=swept,
+    )
 
 
 def _only_swept(result: ProbeResult) -> bool:
