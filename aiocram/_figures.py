@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import textwrap
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -315,6 +316,33 @@ _PURPOSE = {
 }
 
 
+def kitchen_boxes(world: Any) -> list[tuple[Sequence[float], Sequence[float]]]:
+    """The kitchen furniture's axis-aligned boxes ``(lo, hi)`` in ``world``."""
+    from projection import _costmaps as cmod
+
+    return [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
+
+
+def draw_furniture(
+    ax: Any, boxes: Iterable[tuple[Sequence[float], Sequence[float]]], lw: float = 1.0
+) -> None:
+    """The furniture's footprints on a floor-plan axes (grey, under everything else)."""
+    from matplotlib.patches import Rectangle
+
+    for lo, hi in boxes:
+        ax.add_patch(
+            Rectangle(
+                (lo[0], lo[1]),
+                hi[0] - lo[0],
+                hi[1] - lo[1],
+                facecolor=(0.85, 0.85, 0.85),
+                edgecolor="0.35",
+                lw=lw,
+                zorder=0,
+            )
+        )
+
+
 def costmap_figure(
     engine: Any,
     use: _Use,
@@ -333,14 +361,12 @@ def costmap_figure(
     from matplotlib.lines import Line2D
     from matplotlib.patches import Polygon, Rectangle
 
-    from projection import _costmaps as cmod
-
     cmap = engine.costmap(use.location)
     spec = cmap.spec
     values = np.asarray(cmap.values(), dtype=float)
     top = float(cmap.max or 1.0)
     world = engine.world
-    boxes = [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
+    boxes = kitchen_boxes(world)
     x0 = min(lo[0] for lo, _ in boxes) - 0.3
     x1 = max(hi[0] for _, hi in boxes) + 0.3
     y0 = min(lo[1] for lo, _ in boxes) - 0.3
@@ -359,18 +385,7 @@ def costmap_figure(
     )
     bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     bar.set_label("costmap value (1 = best; blank = excluded)")
-    for lo, hi in boxes:
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor=(0.85, 0.85, 0.85),
-                edgecolor="0.35",
-                lw=1.2,
-                zorder=0,
-            )
-        )
+    draw_furniture(ax, boxes, lw=1.2)
     for name, (lo, hi) in use.objects.items():
         ax.add_patch(
             Rectangle(

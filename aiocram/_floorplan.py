@@ -29,6 +29,7 @@ from typing import Any
 
 import cpl
 
+from ._figures import draw_furniture, kitchen_boxes
 from ._views import imagined
 
 __all__ = ["RouteRecorder", "floor_plan_figure"]
@@ -79,12 +80,6 @@ class RouteRecorder(cpl.Instrument):
             return None
 
 
-def _furniture(world: Any) -> list[tuple[Sequence[float], Sequence[float]]]:
-    from projection import _costmaps as cmod
-
-    return [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
-
-
 def draw_floor_plan(
     ax: Any,
     furniture: Iterable[tuple[Sequence[float], Sequence[float]]],
@@ -94,21 +89,9 @@ def draw_floor_plan(
     """Draw the floor plan on the matplotlib axes ``ax`` (see the module docstring);
     ``rows`` are :func:`aiocram.foresight.foresight_records` rows."""
     from matplotlib.lines import Line2D
-    from matplotlib.patches import Rectangle
 
     boxes = list(furniture)
-    for lo, hi in boxes:
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor=(0.85, 0.85, 0.85),
-                edgecolor="0.35",
-                lw=1.0,
-                zorder=0,
-            )
-        )
+    draw_furniture(ax, boxes, lw=1.0)
     if route:
         ax.plot(
             [p[0] for p in route],
@@ -210,7 +193,7 @@ def floor_plan_figure(
 
     fig, ax = plt.subplots(figsize=(8.0, 7.6), dpi=100)
     try:
-        draw_floor_plan(ax, _furniture(world), route, rows)
+        draw_floor_plan(ax, kitchen_boxes(world), route, rows)
         fig.tight_layout()
         fig.savefig(path, format="png")
     finally:

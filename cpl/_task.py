@@ -406,35 +406,34 @@ class Task:
             if self._suspend_requested:
                 await self._suspend_here()
             self.result = await self._take_body()
-        except asyncio.CancelledError as exc:
-            atask = self._atask
-            if self.evaporation is not None:
-                outcome = _EVAPORATED
-            elif atask is not None and atask.cancelling():
-                # Someone cancelled our asyncio task directly: evaporation from outside.
-                self.evaporation = Evaporated("cancelled outside cpl", None)
-                outcome = _EVAPORATED
-                reraise = exc
-            else:
-                # A CancelledError we did not ask for (an awaited future was cancelled):
-                # not ours to swallow. The task fails with it; joiners re-raise it.
-                outcome = _FAILED
-                self.failure = exc
         except GeneratorExit:
             # The coroutine is being closed without running (an abandoned loop is torn
             # down): no cleanup can await any more; just let it close.
             self._close_aw()
             raise
-        except (KeyboardInterrupt, SystemExit) as exc:
-            outcome = _FAILED
-            self.failure = exc
-            reraise = exc
         except BaseException as exc:
-            outcome = _FAILED
-            self.failure = exc
+            outcome, reraise = self._ended_by(exc)
         finally:
             self._close_aw()
         await self._after_body(outcome, reraise)
+
+    def _ended_by(self, exc: BaseException) -> tuple[Status, BaseException | None]:
+        """How a body (on its own asyncio task) that raised ``exc`` ends: the outcome, and
+        what to re-raise after the finish. Records the failure or the evaporation."""
+        if isinstance(exc, asyncio.CancelledError):
+            atask = self._atask
+            if self.evaporation is not None:
+                return _EVAPORATED, None
+            if atask is not None and atask.cancelling():
+                # Someone cancelled our asyncio task directly: evaporation from outside.
+                self.evaporation = Evaporated("cancelled outside cpl", None)
+                return _EVAPORATED, exc
+            # A CancelledError we did not ask for (an awaited future was cancelled): not
+            # ours to swallow. The task fails with it; joiners re-raise it.
+        self.failure = exc
+        if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+            return _FAILED, exc
+        return _FAILED, None
 
     async def _after_body(self, outcome: Status, reraise: BaseException | None) -> None:
         """The end of :meth:`_main` once the body has ended: tear the children down, finish
@@ -963,30 +962,14 @@ class _Driver:
         task = self._task
         assert task is not None
         reraise: BaseException | None = None
-        if type(exc) is StopIteration:
+        if type(exc) is StopIteration:  # returned after a throw (send handles its own)
             outcome = _SUCCEEDED
             task.result = exc.value
-        elif isinstance(exc, asyncio.CancelledError):  # as in _main
-            atask = task._atask
-            if task.evaporation is not None:
-                outcome = _EVAPORATED
-            elif atask is not None and atask.cancelling():
-                task.evaporation = Evaporated("cancelled outside cpl", None)
-                outcome = _EVAPORATED
-                reraise = exc
-            else:
-                outcome = _FAILED
-                task.failure = exc
         elif isinstance(exc, GeneratorExit):
             task._close_aw()
             raise exc
-        elif isinstance(exc, (KeyboardInterrupt, SystemExit)):
-            outcome = _FAILED
-            task.failure = exc
-            reraise = exc
         else:
-            outcome = _FAILED
-            task.failure = exc
+            outcome, reraise = task._ended_by(exc)
         exc = None  # type: ignore[assignment]  # no failure -> frame -> failure cycle
         if task._aw is not None:
             task._close_aw()
