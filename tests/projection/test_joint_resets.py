@@ -1,7 +1,6 @@
-"""``World._set_joints`` skips the joint resets that change nothing, and only those: the
-joints end where they were set, at rest, and the physics that follows is the same bit for
-bit as when every reset runs (Bullet's broadphase remembers the history of AABB updates;
-see the docstring of ``_set_joints`` for why these skips leave it unchanged)."""
+"""``World._set_joints`` resets a block of joints with one ``resetJointStatesMultiDof``:
+the joints end where they were set, at rest; collision checks see the new link poses; and
+the physics that follows is a pure function of the calls (runs are reproducible)."""
 
 from __future__ import annotations
 
@@ -25,15 +24,15 @@ def world() -> Iterator[World]:
     w.close()
 
 
-def _counting(monkeypatch: pytest.MonkeyPatch) -> list[tuple[Any, ...]]:
+def _counting(monkeypatch: pytest.MonkeyPatch, name: str) -> list[tuple[Any, ...]]:
     calls: list[tuple[Any, ...]] = []
-    real = pb.resetJointState
+    real = getattr(pb, name)
 
     def reset(*args: Any, **kw: Any) -> None:
         calls.append(args)
         real(*args, **kw)
 
-    monkeypatch.setattr(pb, "resetJointState", reset)
+    monkeypatch.setattr(pb, name, reset)
     return calls
 
 
@@ -53,37 +52,46 @@ def test_the_joints_end_where_they_were_set_and_at_rest(world: World) -> None:
     assert math.copysign(1.0, states[4][0]) == 1.0
 
 
-def test_only_the_resets_that_change_nothing_are_skipped(
+def test_a_block_is_one_command_and_a_single_joint_one_reset(
     world: World, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     dofs = list(world._dofs)
     now = list(world._get_joints(dofs))
-    calls = _counting(monkeypatch)
-    world._set_joints(dofs, now)
-    assert len(calls) == 1  # the block's first reset always runs
-    calls.clear()
-    world._set_joints(dofs, now, refreshed=True)
-    assert calls == []  # after a reset of the same body, none needs to
+    many = _counting(monkeypatch, "resetJointStatesMultiDof")
+    one = _counting(monkeypatch, "resetJointState")
     moved = list(now)
     moved[5] += 0.1
-    moved[9] -= 0.1
     world._set_joints(dofs, moved)
-    assert [a[1] for a in calls] == [dofs[0], dofs[5], dofs[9]]
-    calls.clear()
-    world._set_joints([dofs[2], dofs[2]], [now[2], now[2]])  # repeated: nothing skipped
-    assert len(calls) == 2
-    calls.clear()
-    nan = list(moved)
-    nan[1] = math.nan
-    world._set_joints(dofs[:3], nan[:3], refreshed=True)
-    assert [a[1] for a in calls] == [dofs[1]]  # NaN never equals: reset, as before
+    assert len(many) == 1 and one == []
+    world._set_joints([dofs[5]], [now[5]])
+    assert len(many) == 1 and len(one) == 1
+    world._set_joints([], [])
+    assert len(many) == 1 and len(one) == 1
+    assert list(world._get_joints(dofs)) == now
 
 
-def _plain_set_joints(world: World, indices: Any, values: Any, body: Any = None, **_: Any) -> None:
-    """Every reset, as before the skipping."""
-    b = world.robot_body if body is None else body
-    for i, v in zip(indices, values):
-        pb.resetJointState(b, i, v, 0.0, physicsClientId=world.client)
+def test_repeated_indices_the_last_value_wins(world: World) -> None:
+    j = world._dofs[2]
+    world._set_joints([j, j], [0.1, 0.2])
+    assert world._get_joints([j]) == (0.2,)
+
+
+def test_collision_checks_see_the_new_link_poses(world: World) -> None:
+    """An object put where the left gripper goes only after the block reset touches it."""
+    world._reset_base(0.75, 0.7, 0.0)
+    arm = list(world._arm_joints["left"])
+    start = list(world._get_joints(arm))
+    goal = [v + 0.4 * (1 if j % 2 else -1) for j, v in enumerate(start)]
+    world._set_joints(arm, goal)
+    tool = world.link_pose("l_gripper_tool_frame").position
+    world._set_joints(arm, start)
+    world.spawn_object("cup", "cup", Pose(tool), allow_overlap=True)
+    c, cup = world.client, world.body_of("cup")
+    pb.performCollisionDetection(physicsClientId=c)
+    assert not pb.getContactPoints(world.robot_body, cup, physicsClientId=c)
+    world._set_joints(arm, goal)
+    pb.performCollisionDetection(physicsClientId=c)
+    assert pb.getContactPoints(world.robot_body, cup, physicsClientId=c)
 
 
 def _scenario(world: World) -> list[Any]:
@@ -124,27 +132,10 @@ def _scenario(world: World) -> list[Any]:
     return out
 
 
-def _batched_set_joints(
-    world: World, indices: Any, values: Any, body: Any = None, **_: Any
-) -> None:
-    """One command for the block: the same joint states, a different AABB history."""
-    b = world.robot_body if body is None else body
-    pb.resetJointStatesMultiDof(
-        b, list(indices), [[v] for v in values], physicsClientId=world.client
-    )
-
-
-def test_skipping_leaves_the_physics_bit_for_bit_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
-    with World(seed=0) as fast:
-        skipped = _scenario(fast)
-    with monkeypatch.context() as m:
-        m.setattr(World, "_set_joints", _plain_set_joints)
-        with World(seed=0) as plain:
-            every = _scenario(plain)
-    assert skipped == every  # exact equality: floats compared bit for bit (no tolerance)
-    # the scenario does see the broadphase's history: one batched reset per block (the
-    # same joint states after every block) changes where the objects end up
-    with monkeypatch.context() as m:
-        m.setattr(World, "_set_joints", _batched_set_joints)
-        with World(seed=0) as batched:
-            assert _scenario(batched) != every
+def test_the_physics_after_block_resets_is_reproducible() -> None:
+    with World(seed=0) as first:
+        once = _scenario(first)
+    with World(seed=0) as second:
+        again = _scenario(second)
+    assert once == again  # exact equality: floats compared bit for bit (no tolerance)
+    assert any(v != (0.0, 0.0, 0.0) for pair in once[1::7] for v in pair)  # things moved
