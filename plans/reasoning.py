@@ -125,17 +125,31 @@ def partition_by_bearing(
 
 
 def _among_generator(d: Designator, env: Environment) -> Iterator[Pose] | None:
-    """``(among (P1 P2 ...))``: exactly those poses, in order (an imagined run's region)."""
+    """``(among (P1 P2 ...))``: exactly those poses, in order (an imagined run's region);
+    with ``(then L)``, followed by the solutions of location designator ``L`` that are not
+    among them (the plan's own designator once the region is used up)."""
     del env
     if "among" not in d:
         return None
     poses = d["among"]
     if not isinstance(poses, tuple) or not all(isinstance(p, Pose) for p in poses):
         raise DesignatorError(f"{d.short()}: (among ...) takes a tuple of executive.Pose", d)
-    return iter(poses)
+    fallback = d.get("then")
+    if fallback is None:
+        return iter(poses)
+    if not isinstance(fallback, LocationDesignator):
+        raise DesignatorError(f"{d.short()}: (then ...) takes a location designator", d)
+    return _region_then(poses, fallback)
 
 
-register_location_generator(_among_generator, 10, keys=("among",))
+def _region_then(poses: tuple[Pose, ...], fallback: LocationDesignator) -> Iterator[Pose]:
+    yield from poses
+    for p in fallback.current().solutions():
+        if not any(p == q for q in poses):
+            yield p
+
+
+register_location_generator(_among_generator, 10, keys=("among", "then"))
 
 
 @dataclass(eq=False)
@@ -152,7 +166,10 @@ class Exploration:
       cut by bearing around a centre (the object for a pick base pose, the pool's centroid
       for placing targets) into ``runs`` contiguous regions (:func:`partition_by_bearing`):
       run ``i`` gets region ``i`` as an ``(among ...)`` location, whose solutions are that
-      region's poses in draw order (the plan's relocation retries stay in the region). A
+      region's poses in draw order, then (``(then ...)``) the plan's own designator's
+      other solutions: the relocation retries start in the region and, once it is used
+      up, go on as without reasoning (a region of 4 poses used to end a fetch that has 10
+      relocations after the 4th failure, with ``ObjectUnfetchable``). A
       pool too small for a region (e.g. a fixed pose target) leaves later runs on the
       plan's own designator.
     * **arm**: ``ARMS[(run - 1) % 3]`` = unconstrained / left / right, unless the caller
@@ -202,8 +219,7 @@ class Exploration:
             return designator
         bearing = math.degrees(_bearing(mine[0], around or (0.0, 0.0)))
         self.explored[key] = f"region {self.run}/{self.runs} ({bearing:+.0f}°)"
-        region = a.location(among=mine)
-        return region
+        return a.location(among=mine, then=designator)
 
 
 def to_pose(value: Any) -> Pose:

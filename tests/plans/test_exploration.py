@@ -20,8 +20,9 @@ from test_reasoning import (  # type: ignore[import-not-found]
 )
 
 import cpl
-from executive import Pose, perform, performed
+from executive import Pose, a, perform, performed
 from plans.reasoning import (
+    Exploration,
     ProjectedParameters,
     RunAssessment,
     assess_run,
@@ -48,6 +49,31 @@ def test_imagined_runs_explore_different_regions_and_arms():
     for run, arm in zip(runs[1:], ("left", "right")):
         picks = [d for _t, d in performed(run, "picking-up")]
         assert picks and picks[-1].get("arm") == arm
+
+
+def test_a_region_is_tried_first_then_the_plans_own_solutions():
+    """The real run's relocations start in the chosen region and, once it is used up, go
+    on with the plan's own designator (the region's poses not repeated)."""
+    _world, real, _dream, imagination = setup()
+
+    async def regions() -> list[list[Pose]]:
+        pools: dict[str, Any] = {}
+        out = []
+        for run in (1, 2, 3):
+            own = a.location(spots=12)
+            region = Exploration(run, 3, pools).region("spots", own, around=(1.0, 1.1))
+            out.append([p for p in region.solutions()])
+        return out
+
+    _root, (first, second, third) = run_real(real, imagination, regions)
+    spots = [Pose((1.0, 0.2 * k, 0.8)) for k in range(12)]
+    for got in (first, second, third):
+        head = got[:4]
+        assert len(got) == 12 and sorted(p.position for p in got) == sorted(
+            p.position for p in spots
+        )
+        assert all(any(p == q for q in spots) for p in head)
+    assert len({tuple(p.position for p in r[:4]) for r in (first, second, third)}) == 3
 
 
 @given(

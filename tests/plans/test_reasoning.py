@@ -270,9 +270,10 @@ def test_imagined_runs_leave_the_belief_world_unchanged():
 
 def test_an_imagined_failure_does_not_fail_the_real_run():
     # Run 1: every picking-up probe (2 arms x the cup's 5 grasps x straight/from above)
-    # fails at each of the 4 base poses of its region -> object-unfetchable.
+    # fails at each of the 11 base poses it tries (the 4 of its region, then the plan's
+    # own, until fetching's 10 relocations run out) -> object-unfetchable.
     world, real, _dream, imagination = setup()
-    world.fail_probe["arm"] = {n: True for n in range(1, 20 * plans.reasoning.POOL_PER_RUN + 1)}
+    world.fail_probe["arm"] = {n: True for n in range(1, 20 * 11 + 1)}
     root, result = run_real(real, imagination, lambda: perform(transporting()))
     run1, run2, _ = (child(root, n) for n in RUN_NAMES)
     assert run1.state is cpl.Status.FAILED and isinstance(run1.failure, ObjectUnfetchable)
