@@ -44,6 +44,7 @@ from ._solutions import ActionGrounding, MotionCommand, ObjectData
 from ._world import (
     AABB,
     ArmSweepProbe,
+    ContainerOpeningProbe,
     ProbeResult,
     ProjectionWorld,
     SceneSetup,
@@ -90,6 +91,7 @@ __all__ = [
     "ProbeResult",
     "ProjectionWorld",
     "ArmSweepProbe",
+    "ContainerOpeningProbe",
     "SceneSetup",
     "WorldModel",
     "WorldProbes",

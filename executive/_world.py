@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from ._pose import Pose
 
@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 __all__ = [
     "AABB",
     "ArmSweepProbe",
+    "ContainerOpeningProbe",
     "ProbeResult",
     "ProjectionWorld",
     "SceneSetup",
@@ -162,6 +163,18 @@ class ArmSweepProbe(Protocol):
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
         """``left``/``right``: 7 joint values each, ``None``: that arm stays."""
+        ...
+
+
+@runtime_checkable
+class ContainerOpeningProbe(Protocol):
+    """An optional probe (a world model that cannot tell simply lacks it; plans then skip
+    the check): would opening ``container`` by ``distance`` push it into the robot, i.e.
+    would the opened container touch a robot link other than ``arm``'s gripper (which
+    holds its handle)? ``projection``'s world models implement it on their kitchen."""
+
+    def probe_container_opening(self, container: Any, distance: float, arm: str) -> ProbeResult:
+        """``container``: its designator or link/joint name; the world is left as it was."""
         ...
 
 

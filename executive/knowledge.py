@@ -31,6 +31,7 @@ __all__ = [
     "ARM_PREFIX",
     "GRIPPER_MAX_OPENING",
     "LIFT_OFFSET",
+    "LYING_TILT",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
     "STANDARD_TO_PR2_ROTATION",
@@ -321,23 +322,44 @@ def gripper_opening(object_type: str) -> float:
 _G_PRIME_T_G = np.array(STANDARD_TO_PR2_ROTATION)
 
 
+#: An object whose z axis is tilted more than this (rad) from the vertical lies: its grasp
+#: offsets' z components go along the vertical (see :func:`grasp_poses`).
+LYING_TILT = 0.35
+
+
 def grasp_poses(
     object_type: str, grasp_name: str, object_transform_in_base: Transform | Pose
 ) -> list[Pose]:
     """The five tool-frame waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift] as
     poses in the transform's parent frame (normally ``base_footprint``):
     ``bTg = bTo · oTg′ · g′Tg`` with the offsets added to the grasp translation in the
-    object frame. Unknown type or grasp -> :class:`LookupError`."""
+    object frame. Unknown type or grasp -> :class:`LookupError`.
+
+    A lying object (its z axis more than :data:`LYING_TILT` from the vertical, e.g. a milk
+    carton knocked over): the grasp itself stays in the object frame, so the side grasp
+    whose approach now points down reaches it from above, fingers across the carton; but
+    the offsets' z components (the "up" of the pregrasps and of the lift) go along the
+    parent frame's z, never sideways along the lying object's axis. Deliberate difference:
+    CRAM's grasps assume an upright object, so a toppled one could not be picked up; the
+    placing (:mod:`plans.pick_place`) then puts the object down upright, holding it by the
+    same grasp, now horizontal."""
     g = grasp(object_type, grasp_name)
     b_t_o = object_transform_in_base.matrix()
     frame = object_transform_in_base.frame
     rot = np.array(g.rotation) @ _G_PRIME_T_G
+    lying = b_t_o[2, 2] < math.cos(LYING_TILT)
     out: list[Pose] = []
     for off in g.offsets():
         o_t_g = np.eye(4)
         o_t_g[:3, :3] = rot
-        o_t_g[:3, 3] = np.add(g.translation, off)
-        out.append(Transform.from_matrix(b_t_o @ o_t_g, frame).to_pose())
+        if not lying:
+            o_t_g[:3, 3] = np.add(g.translation, off)
+            out.append(Transform.from_matrix(b_t_o @ o_t_g, frame).to_pose())
+            continue
+        o_t_g[:3, 3] = np.add(g.translation, (off[0], off[1], 0.0))
+        m = b_t_o @ o_t_g
+        m[2, 3] += off[2]
+        out.append(Transform.from_matrix(m, frame).to_pose())
     return out
 
 

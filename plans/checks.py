@@ -14,6 +14,7 @@ from typing import Any, cast
 
 from executive import (
     ActionDesignator,
+    ContainerOpeningProbe,
     Designator,
     DesignatorError,
     EnvironmentUnreachable,
@@ -220,7 +221,9 @@ def check_environment_manipulation_collisions(
 ) -> Designator:
     """Probe an ``opening``/``closing`` (container) trajectory: IK for every waypoint;
     for opening, collisions too (except with ``allowed_contacts``, e.g. the handle and
-    drawer links). Failure or designator error -> ``EnvironmentUnreachable``. Returns the
+    drawer links), and, where the world model can tell (:class:`ContainerOpeningProbe`),
+    whether the opened container would be pushed into the robot (the other forearm).
+    Failure or designator error -> ``EnvironmentUnreachable``. Returns the
     newest member of the chain."""
     world = _world()
     current = action.current()
@@ -237,4 +240,10 @@ def check_environment_manipulation_collisions(
         raise EnvironmentUnreachable(str(error)) from error
     if not result.ok:
         raise EnvironmentUnreachable(f"{current.short()}: {_failure(result)}") from result.failure
+    if args["opening"] and isinstance(world, ContainerOpeningProbe):
+        pushed = world.probe_container_opening(args["container"], args["distance"], args["arm"])
+        if not pushed.ok:
+            raise EnvironmentUnreachable(
+                f"{current.short()}: {_failure(pushed)}"
+            ) from pushed.failure
     return current

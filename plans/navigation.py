@@ -58,6 +58,7 @@ __all__ = [
     "BACK_OFF",
     "NAVIGATION_RETRIES",
     "NAVIGATION_TOLERANCE",
+    "PARK_BACK_OFFS",
     "BaseStoppedShort",
     "back_off",
     "go_without_collisions",
@@ -186,24 +187,31 @@ BACK_OFF = 0.25
 
 
 @cpl.plan(name="back-off")
-async def back_off(distance: float = BACK_OFF) -> None:
+async def back_off(distance: float = BACK_OFF) -> bool:
     """Retreat before parking the arms next to a counter: drive the base ``distance``
     straight back if the belief's probe says the robot (with what it holds) stands free
     there; the going's failures are ignored (logged: the arms are parked wherever the
     base stopped). Deliberate addition: CRAM parked (``carry``) right where it had picked
     or placed, and the park swept the arm and the held object through the neighbours on
     the counter (the cereal box toppled off the sink counter, a delivered cup off the
-    island)."""
+    island). Returns whether it drove (False: the belief says the robot cannot stand
+    there)."""
     world = current_environment().world
     goal = to_map(Pose((-distance, 0.0, 0.0), frame="base_footprint"))
     probe = world.probe_base_pose(goal)
     if not probe.ok:
         log.info("no backing off: %s", probe.failure)
-        return
+        return False
     try:
         await perform(an.action(type="going", target=a.location(pose=goal)))
     except NavigationLowLevelFailure as failure:
         log.info("backing off stopped short: %s", failure)
+    return True
+
+
+#: How often :func:`park_clear` backs off while the park from where the base stands
+#: would sweep through an object or end inside the kitchen.
+PARK_BACK_OFFS = 2
 
 
 async def park_clear(configuration: str = "carry") -> None:
@@ -213,12 +221,18 @@ async def park_clear(configuration: str = "carry") -> None:
     checks the path the arm controller will take. A world model without that probe (a
     test double) is not asked. Deliberate addition: CRAM parked wherever the robot stood
     (after a failed grip, before driving off), and from next to a counter the park swept
-    the neighbours off it (a cup knocked to the floor by a regrasp's park)."""
+    the neighbours off it (a cup knocked to the floor by a regrasp's park). The probe also
+    fails where the arms would end inside the kitchen (the carry configuration next to a
+    drawer the robot has just opened); up to :data:`PARK_BACK_OFFS` back-offs, each
+    re-probed; the park then happens wherever the base is (logged above)."""
     world = current_environment().world
     if isinstance(world, ArmSweepProbe):
         joints = {arm: knowledge.arm_configuration(configuration, arm) for arm in knowledge.ARMS}
-        result = world.probe_arm_configuration(left=joints["left"], right=joints["right"])
-        if not result.ok:
+        for _ in range(PARK_BACK_OFFS):
+            result = world.probe_arm_configuration(left=joints["left"], right=joints["right"])
+            if result.ok:
+                break
             log.info("backing off before parking: %s", result.failure)
-            await back_off()
+            if not await back_off():
+                break
     await park_arms(configuration)

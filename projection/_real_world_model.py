@@ -118,6 +118,9 @@ class RealWorldModel:
     ) -> ProbeResult:
         return self.belief.probe_arm_configuration(left, right, allowed_contacts=allowed_contacts)
 
+    def probe_container_opening(self, container: Any, distance: float, arm: str) -> ProbeResult:
+        return self.belief.probe_container_opening(container, distance, arm)
+
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         return self.belief.probe_placing_stability(object_type, pose)
 

@@ -32,7 +32,7 @@ from executive.failures import (
 from executive.knowledge import ARM_PREFIX
 from projection._arm_planner import controller_path, swept_objects
 from projection._objects import object_type as _object_type
-from projection._world import Contact, World
+from projection._world import KITCHEN, Contact, World
 
 __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
 
@@ -287,9 +287,13 @@ class ProjectedWorldModel:
         The path is the real controller's for a configuration move
         (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
         around free objects where it can be), in this world. The failure is
-        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``). The world
-        is restored. Wrong joint values: ValueError; allowed_contacts one string:
-        TypeError. Deliberate addition: CRAM never checked a park (``position-arms``)."""
+        :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``). Also a
+        failure: the arms would *end* inside a kitchen link they did not touch before
+        (``swept=("kitchen/<link>", ...)``), e.g. the carry configuration next to the
+        drawer the robot has just opened, which wedged the true robot's forearm in the
+        drawer so that the base could not drive off. The world is restored. Wrong joint
+        values: ValueError; allowed_contacts one string: TypeError. Deliberate addition:
+        CRAM never checked a park (``position-arms``)."""
         goals = {a: q for a, q in (("left", left), ("right", right)) if q is not None}
         if isinstance(allowed_contacts, str):
             raise TypeError("allowed_contacts is a sequence of names, not one string")
@@ -303,8 +307,20 @@ class ProjectedWorldModel:
             torso = world.torso_height
             start = {a: world.arm_joints(a) for a in arms}
             free = {n for n in world.objects if n not in world.attachments} - allowed
+            kitchen_before = _kitchen_links(world)
             others = free - _touched(world, free)
             world.move_joints(**goals)  # ValueError for wrong values
+            inside = sorted(_kitchen_links(world) - kitchen_before)
+            if inside:
+                return ProbeResult(
+                    False,
+                    ManipulationGoalInCollision(
+                        f"the {' and '.join(arms)} arm(s) would end inside "
+                        f"{', '.join(inside)} (e.g. an open drawer)",
+                        arms=tuple(arms),
+                        swept=tuple(f"{KITCHEN}/{link}" for link in inside),
+                    ),
+                )
             others -= _touched(world, others)
             if not others:
                 return ProbeResult(True)
@@ -324,6 +340,36 @@ class ProjectedWorldModel:
                 ),
             )
         return ProbeResult(True)
+
+    def probe_container_opening(self, container: Any, distance: float, arm: str) -> ProbeResult:
+        """Would opening ``container`` (its designator, link or joint) by ``distance`` push
+        it into the robot: would the opened container touch a robot link (or something
+        the robot holds) other than ``arm``'s gripper, which holds the handle, where it
+        did not before? The failure is :class:`executive.ManipulationGoalInCollision`
+        (``swept=("kitchen/<link>", ...)``). The world is restored. Unknown container:
+        LookupError; a wrong arm: ValueError. Deliberate addition: CRAM checked only the
+        opening arm's waypoints, and a drawer pulled open into the other forearm wedged
+        the true robot there (no base motion was collision-free any more)."""
+        gripper = f"{ARM_PREFIX[_arm(arm)]}_gripper"
+        name = self._container(container)
+        world = self.world
+        snap = world.snapshot()
+        try:
+            before = _kitchen_contacts(world, gripper)
+            world.open_container(name, distance)
+            pushed = sorted({link for _a, link in _kitchen_contacts(world, gripper) - before})
+        finally:
+            world.restore(snap)
+        if not pushed:
+            return ProbeResult(True)
+        return ProbeResult(
+            False,
+            ManipulationGoalInCollision(
+                f"opening {name} by {distance:.2f} m would push {', '.join(pushed)} into the robot",
+                arms=(arm,),
+                swept=tuple(f"{KITCHEN}/{link}" for link in pushed),
+            ),
+        )
 
     def _swept(
         self,
@@ -457,6 +503,21 @@ def _rounded(*values: float) -> tuple[float, ...]:
 
 def _touched(world: World, names: set[str]) -> set[str]:
     return {c.body_b for c in world.robot_collisions() if c.body_b in names}
+
+
+def _kitchen_contacts(world: World, except_prefix: str) -> set[tuple[str, str]]:
+    """(robot link, kitchen link) pairs in contact, but for robot links named
+    ``except_prefix...``."""
+    return {
+        (c.link_a or "", c.link_b or "")
+        for c in world.robot_collisions()
+        if c.body_b == KITCHEN and not (c.link_a or "").startswith(except_prefix)
+    }
+
+
+def _kitchen_links(world: World) -> set[str]:
+    """The kitchen links the robot (or what it holds) touches now."""
+    return {c.link_b or "" for c in world.robot_collisions() if c.body_b == KITCHEN}
 
 
 def _swept_into(arm: str, index: int, objects: list[str]) -> ManipulationGoalInCollision:

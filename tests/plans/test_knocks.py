@@ -69,14 +69,15 @@ def test_checking_the_waypoints_only_pushes_the_neighbour(mrun: Any) -> None:
 
 
 # ---------------------------------------------------------------- parking (test double)
-def _scripted_park_probe(world: Any, ok: bool) -> list[dict[str, Any]]:
+def _scripted_park_probe(world: Any, ok: bool, failures: int = 1000) -> list[dict[str, Any]]:
+    """The park probe: clear (``ok``), or failing its first ``failures`` calls."""
     from executive import ManipulationGoalInCollision, ProbeResult
 
     calls: list[dict[str, Any]] = []
 
     def probe(**kw: Any) -> ProbeResult:
         calls.append(kw)
-        if ok:
+        if ok or len(calls) > failures:
             return ProbeResult(True)
         return ProbeResult(False, ManipulationGoalInCollision("sweeps through bowl-1"))
 
@@ -91,13 +92,27 @@ def test_a_park_that_would_sweep_through_an_object_backs_off_first(cup_world: An
     from plans.navigation import park_clear
 
     robot = make_robot(cup_world)
-    calls = _scripted_park_probe(cup_world, ok=False)
+    calls = _scripted_park_probe(cup_world, ok=False, failures=1)
     robot.run(park_clear)
-    assert calls == [{a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}]
+    carry = {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
+    assert calls == [carry, carry]  # re-probed after the back-off: clear
     (drive,) = robot.calls("navigation")  # the back-off, then the park
     assert drive.reference().arguments["pose"].isclose(Pose((-0.25, 0.0, 0.0)))
     (park,) = robot.calls("arms")
     assert park.reference().arguments["right"] == knowledge.arm_configuration("carry", "right")
+
+
+def test_a_park_that_stays_blocked_backs_off_at_most_twice_then_parks(cup_world: Any) -> None:
+    from conftest import make_robot
+
+    from plans.navigation import PARK_BACK_OFFS, park_clear
+
+    robot = make_robot(cup_world)
+    calls = _scripted_park_probe(cup_world, ok=False)
+    robot.run(park_clear)
+    assert PARK_BACK_OFFS == 2 and len(calls) == PARK_BACK_OFFS
+    assert len(robot.calls("navigation")) == PARK_BACK_OFFS
+    assert len(robot.calls("arms")) == 1
 
 
 def test_a_clear_park_parks_where_the_robot_stands(cup_world: Any) -> None:

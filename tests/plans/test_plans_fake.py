@@ -4,6 +4,7 @@ retries run out, with CRAM HEAD's counts."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import pytest
 from conftest import DRAWER, HANDLE, make_robot
@@ -11,9 +12,11 @@ from conftest import DRAWER, HANDLE, make_robot
 import cpl
 import executive
 from executive import (
+    ContainerOpeningProbe,
     EnvironmentManipulationImpossible,
     GripperClosedCompletely,
     LookingHighLevelFailure,
+    ManipulationGoalInCollision,
     ManipulationPoseUnreachable,
     NavigationGoalInCollision,
     NavigationPoseUnreachable,
@@ -22,6 +25,7 @@ from executive import (
     ObjectUnfetchable,
     PerceptionObjectNotFound,
     Pose,
+    ProbeResult,
     PtuGoalNotReached,
     a,
     an,
@@ -387,6 +391,39 @@ def test_accessing_relocates_then_opens_the_drawer(cup_world):
     opened = [e for e in cup_world.events if isinstance(e, ContainerOpened)]
     assert opened[0].distance == 0.3
     assert cup_world.joint_states["sink_area_left_upper_drawer_main"] == 0.3
+
+
+class _PushingDrawerWorld(InMemoryWorld):
+    """A fake world model that also answers the optional opening probe: opening the
+    drawer from the first ``pushes`` base poses would push it into the robot."""
+
+    def __init__(self, pushes: int, **kw: Any) -> None:
+        super().__init__(**kw)
+        self.pushes = pushes
+        self.opening_probes: list[tuple[Any, float, str]] = []
+
+    def probe_container_opening(self, container: Any, distance: float, arm: str) -> ProbeResult:
+        self.opening_probes.append((container, distance, arm))
+        if len(self.opening_probes) <= self.pushes:
+            return ProbeResult(False, ManipulationGoalInCollision("into the right forearm"))
+        return ProbeResult(True)
+
+
+def test_accessing_relocates_when_the_drawer_would_be_pushed_into_the_robot(cup_world):
+    world = _PushingDrawerWorld(
+        2,
+        objects={n: o.pose for n, o in cup_world.objects.items()},
+        types={n: o.type for n, o in cup_world.objects.items()},
+        links=cup_world.links,
+    )
+    assert isinstance(world, ContainerOpeningProbe)
+    robot = make_robot(world)
+    location = a.location(("side", "front"), in_=DRAWER)
+    robot.run(perform, an.action(type="accessing", location=location, distance=0.3))
+    assert len(world.opening_probes) == 3 and world.opening_probes[0][1:] == (0.3, "left")
+    assert len(robot.calls("navigation", "going")) == 3  # two relocations
+    opened = [e for e in world.events if isinstance(e, ContainerOpened)]
+    assert len(opened) == 1 and world.joint_states["sink_area_left_upper_drawer_main"] == 0.3
 
 
 def test_accessing_gives_up_after_ten_relocations(cup_world):

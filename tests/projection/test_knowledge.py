@@ -67,3 +67,29 @@ def test_arm_configurations_have_seven_values() -> None:
     for name in ("park", "carry"):
         for arm in knowledge.ARMS:
             assert len(knowledge.arm_configuration(name, arm)) == 7
+
+
+def test_a_lying_carton_is_grasped_from_above_and_lifted_straight_up() -> None:
+    """Milk on its side (its x axis pointing down): the back grasp (approach +x in the
+    object frame) now comes from above, and the pregrasps and the lift go up, not along
+    the carton's axis."""
+    s = np.sqrt(0.5)
+    lying = Pose((0.7, 0.0, 0.75), (0.0, s, 0.0, s), frame="base_footprint")
+    pre, pre2, grasp, lift, lift2 = knowledge.grasp_poses(
+        "milk", "back", lying.to_transform("milk")
+    )
+    tool_x = grasp.matrix()[:3, 0]  # the PR2 tool's x axis is the approach
+    assert np.allclose(tool_x, (0.0, 0.0, -1.0), atol=1e-9)
+    for above, height in ((pre2, 0.15), (pre, 0.30), (lift, 0.15), (lift2, 0.15)):
+        assert np.allclose(above.position[:2], grasp.position[:2], atol=1e-9)
+        assert above.position[2] == pytest.approx(grasp.position[2] + height)
+
+
+def test_an_upright_object_keeps_the_offsets_in_its_own_frame() -> None:
+    tilted = Pose((0.7, 0.1, 0.8), (0.0, np.sin(0.1), 0.0, np.cos(0.1)), frame="base_footprint")
+    poses = knowledge.grasp_poses("milk", "back", tilted.to_transform("milk"))
+    g = knowledge.grasp("milk", "back")
+    b_t_o = tilted.matrix()
+    for pose, off in zip(poses, g.offsets()):
+        expected = b_t_o @ np.append(np.add(g.translation, off), 1.0)
+        assert np.allclose(pose.position, expected[:3], atol=1e-9)

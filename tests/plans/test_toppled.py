@@ -1,0 +1,81 @@
+"""A milk carton knocked over on the sink counter is picked up from above and delivered
+standing (issue 13: "a toppled box can still be picked, or set upright"; no CRAM plan
+does this). The grasp is the carton's side grasp whose approach now points down
+(:func:`executive.knowledge.grasp_poses`); the placing holds it by that grasp, now
+horizontal, and puts the carton down upright. Measured in the true world."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+import plans  # noqa: F401 - the action rules
+from executive import Pose, an, knowledge, perform
+from plans.demo import fetch_location, place_location
+from projection import FaultProfile, make_world_pair, settle, with_real_robot
+
+#: The carton on its side: its x axis (0.06 m) vertical, lying on its 0.095 x 0.20 face.
+ON_ITS_SIDE = (0.0, math.sqrt(0.5), 0.0, math.sqrt(0.5))
+
+
+def _tilt(pose: Pose) -> float:
+    """Angle (rad) between the object's z axis and the vertical."""
+    return math.acos(max(-1.0, min(1.0, float(pose.matrix()[2, 2]))))
+
+
+def _transport_lying_milk(mrun: Any, monkeypatch: pytest.MonkeyPatch, lying_tilt: float) -> Any:
+    monkeypatch.setattr(knowledge, "LYING_TILT", lying_tilt)
+    true, belief = make_world_pair(0, belief_objects="exact")
+    try:
+        x, y, z = true.object_pose("milk-1").position
+        true.set_object_pose("milk-1", Pose((x, y, z - 0.03), ON_ITS_SIDE))
+        settle(true, 240)
+        assert _tilt(true.object_pose("milk-1")) > math.radians(80)
+
+        async def main() -> Any:
+            async with with_real_robot(true, belief, FaultProfile.none()):
+                return await perform(
+                    an.action(
+                        type="transporting",
+                        object=an.object(type="milk", name="milk-1"),
+                        location=fetch_location("milk"),
+                        target=place_location("milk", bowl_placed=False),
+                        projection_reasoning=False,
+                    )
+                )
+
+        try:
+            mrun(main)
+        except Exception as exc:  # the old grasps: the plan's typed failure
+            outcome: Any = exc
+        else:
+            outcome = None
+        settle(true, 240)
+        return outcome, true.object_pose("milk-1"), true.link_aabb("kitchen_island_surface")
+    finally:
+        true.close()
+        belief.close()
+
+
+def test_a_milk_carton_lying_on_the_counter_is_delivered_standing(
+    mrun: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    outcome, end, ((lx, ly, _), (hx, hy, hz)) = _transport_lying_milk(
+        mrun, monkeypatch, knowledge.LYING_TILT
+    )
+    assert outcome is None
+    x, y, z = end.position
+    assert lx < x < hx and ly < y < hy and hz < z < hz + 0.15  # on the island
+    assert _tilt(end) < math.radians(15)  # standing: "delivered" in the true world
+
+
+def test_with_grasps_for_upright_objects_only_the_lying_carton_is_lost(
+    mrun: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The same scene with every object treated as upright (the offsets along the lying
+    carton's axis, as before): no pick succeeds and the carton stays on its side."""
+    outcome, end, _island = _transport_lying_milk(mrun, monkeypatch, math.pi)
+    assert outcome is not None and type(outcome).__name__ == "ObjectUnfetchable"
+    assert _tilt(end) > math.radians(80)
