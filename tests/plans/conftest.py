@@ -122,3 +122,22 @@ def cup_world() -> InMemoryWorld:
             },
         },
     )
+
+
+async def transport_for_real(true: Any, belief: Any, object_type: str, name: str) -> Any:
+    """Transport one object on the simulated real robot (no faults, no projection
+    reasoning) from where the demo looks for its type to where the demo puts it."""
+    from executive import an, perform
+    from plans.demo import fetch_location, place_location
+    from projection import FaultProfile, with_real_robot
+
+    async with with_real_robot(true, belief, FaultProfile.none()):
+        return await perform(
+            an.action(
+                type="transporting",
+                object=an.object(type=object_type, name=name),
+                location=fetch_location(object_type),
+                target=place_location(object_type, bowl_placed=False),
+                projection_reasoning=False,
+            )
+        )

@@ -10,20 +10,19 @@ import math
 from typing import Any
 
 import pytest
-from conftest import make_robot
+from conftest import make_robot, transport_for_real
 
 import plans  # noqa: F401 - the action rules
 from executive import ObjectNowhereToBeFound, Pose, an, perform
 from executive.testing import InMemoryWorld
 from plans import retry_ledger
-from plans.demo import fetch_location, place_location
 from plans.fetch import (
     FLOOR_PICK_DISTANCE,
     FLOOR_PICK_SIDE,
     ObjectUnreachableOnFloor,
     search_floor,
 )
-from projection import FaultProfile, make_world_pair, settle, with_real_robot
+from projection import make_world_pair, settle
 
 #: On the floor in front of the sink counter: where a cup knocked off it lands.
 ON_THE_FLOOR = Pose((1.0, 0.6, 0.06))
@@ -38,16 +37,7 @@ def test_a_cup_on_the_floor_is_fetched_from_there_and_delivered(mrun: Any) -> No
         assert true.object_pose("cup-1").position[2] < 0.1
 
         async def main() -> Any:
-            async with with_real_robot(true, belief, FaultProfile.none()):
-                return await perform(
-                    an.action(
-                        type="transporting",
-                        object=an.object(type="cup", name="cup-1"),
-                        location=fetch_location("cup"),
-                        target=place_location("cup", bowl_placed=False),
-                        projection_reasoning=False,
-                    )
-                )
+            return await transport_for_real(true, belief, "cup", "cup-1")
 
         delivered = mrun(main)
         assert delivered is not None  # not dropped at the sink

@@ -10,11 +10,11 @@ import math
 from typing import Any
 
 import pytest
+from conftest import transport_for_real
 
 import plans  # noqa: F401 - the action rules
-from executive import Pose, an, knowledge, perform
-from plans.demo import fetch_location, place_location
-from projection import FaultProfile, make_world_pair, settle, with_real_robot
+from executive import Pose, knowledge
+from projection import make_world_pair, settle
 
 #: The carton on its side: its x axis (0.06 m) vertical, lying on its 0.095 x 0.20 face.
 ON_ITS_SIDE = (0.0, math.sqrt(0.5), 0.0, math.sqrt(0.5))
@@ -35,16 +35,7 @@ def _transport_lying_milk(mrun: Any, monkeypatch: pytest.MonkeyPatch, lying_tilt
         assert _tilt(true.object_pose("milk-1")) > math.radians(80)
 
         async def main() -> Any:
-            async with with_real_robot(true, belief, FaultProfile.none()):
-                return await perform(
-                    an.action(
-                        type="transporting",
-                        object=an.object(type="milk", name="milk-1"),
-                        location=fetch_location("milk"),
-                        target=place_location("milk", bowl_placed=False),
-                        projection_reasoning=False,
-                    )
-                )
+            return await transport_for_real(true, belief, "milk", "milk-1")
 
         try:
             mrun(main)
