@@ -350,15 +350,13 @@ def grasp_poses(
     lying = b_t_o[2, 2] < math.cos(LYING_TILT)
     out: list[Pose] = []
     for off in g.offsets():
+        up = off[2] if lying else 0.0  # the part of the offset along the parent's z
         o_t_g = np.eye(4)
         o_t_g[:3, :3] = rot
-        if not lying:
-            o_t_g[:3, 3] = np.add(g.translation, off)
-            out.append(Transform.from_matrix(b_t_o @ o_t_g, frame).to_pose())
-            continue
-        o_t_g[:3, 3] = np.add(g.translation, (off[0], off[1], 0.0))
+        o_t_g[:3, 3] = np.add(g.translation, (off[0], off[1], off[2] - up))
         m = b_t_o @ o_t_g
-        m[2, 3] += off[2]
+        if lying:
+            m[2, 3] += up
         out.append(Transform.from_matrix(m, frame).to_pose())
     return out
 

@@ -40,6 +40,7 @@ __all__ = [
     "leg_seconds",
     "reroute_cartesian",
     "swept_objects",
+    "touched_objects",
 ]
 
 Config = tuple[float, dict[str, tuple[float, ...]]]  # torso height, arm joints by arm
@@ -211,14 +212,14 @@ def reroute_cartesian(
         return None
     world.move_torso(torso)
     world.move_joints(**path[0][1])
-    allowed = _touched(world, free)
+    allowed = touched_objects(world, free)
     world.move_joints(**path[-1][1])
-    allowed |= _touched(world, free)
+    allowed |= touched_objects(world, free)
     others = free - allowed
     hit = False
     for _t, config in path[1:-1]:
         world.move_joints(**config)
-        if _touched(world, others):
+        if touched_objects(world, others):
             hit = True
             break
     if not hit:
@@ -227,8 +228,8 @@ def reroute_cartesian(
     return arm_path(world, arms, start, goal, fallback=False)
 
 
-def _touched(world: World, free: set[str]) -> set[str]:
-    """The free objects the robot (or what it holds) touches now."""
+def touched_objects(world: World, free: set[str]) -> set[str]:
+    """The objects of ``free`` the robot (or what it holds) touches now."""
     return {c.body_b for c in world.robot_collisions() if c.body_b in free}
 
 
@@ -250,7 +251,7 @@ def _path_hits(
         world.move_joints(
             **{arm: [p + f * (q - p) for p, q in zip(a[arm], b[arm])] for arm in arms}
         )
-        if _touched(world, free):
+        if touched_objects(world, free):
             return True
     return False
 
@@ -333,9 +334,9 @@ class _ArmRouter:
     ) -> _ArmRouter:
         free = {n for n in world.objects if n not in world.attachments}
         world.move_joints(**{a: start[a] for a in arms})
-        at_start = _touched(world, free)
+        at_start = touched_objects(world, free)
         world.move_joints(**{a: goal[a] for a in arms})
-        at_goal = _touched(world, free)
+        at_goal = touched_objects(world, free)
         return cls(world, arms, start, goal, at_start, at_goal)
 
     def raised(self, config: ArmConfig) -> ArmConfig:
@@ -456,7 +457,7 @@ def swept_objects(world: World, path: Sequence[Config], others: set[str]) -> set
     hit: set[str] = set()
     world.move_torso(path[0][0])
     world.move_joints(**path[0][1])
-    hit |= _touched(world, others)
+    hit |= touched_objects(world, others)
     for (t0, u), (t1, v) in itertools.pairwise(path):
         joints = max((abs(q - p) for a in u for p, q in zip(u[a], v[a])), default=0.0)
         n = max(1, math.ceil(max(joints / SWEEP_STEP[0], abs(t1 - t0) / SWEEP_STEP[1])))
@@ -464,5 +465,5 @@ def swept_objects(world: World, path: Sequence[Config], others: set[str]) -> set
             f = k / n
             world.move_torso(t0 + f * (t1 - t0))
             world.move_joints(**{a: [p + f * (q - p) for p, q in zip(u[a], v[a])] for a in u})
-            hit |= _touched(world, others)
+            hit |= touched_objects(world, others)
     return hit

@@ -26,7 +26,7 @@ from projection._geometry import yaw_quat as _yaw_quat
 from projection._names import UnknownName
 from projection._objects import object_type
 
-_REST = [0.0]  # a joint's velocity after a reset
+_REST = (0.0,)  # a joint's velocity after a reset
 
 __all__ = [
     "ASSETS",
@@ -523,8 +523,6 @@ class WorldBase:
         indices: Sequence[int],
         values: Sequence[float],
         body: int | None = None,
-        *,
-        refreshed: bool = False,
     ) -> None:
         """Reset joints ``indices`` of ``body`` (default: the robot) to ``values`` at rest.
 
@@ -534,9 +532,8 @@ class WorldBase:
         outcome is a pure function of the arguments and the world's state, so runs stay
         reproducible; it is not bit-identical to N single resets (the broadphase sees one
         AABB update instead of N), which is why this changed the campaign's outcomes once,
-        together with :data:`projection._world_ik.IK_RESIDUAL`. Repeated indices: the last
-        value wins, as with single resets. ``refreshed`` is accepted for callers that have
-        just reset the body's base; it changes nothing here."""
+        together with :data:`projection._world_ik.IK_ITERATIONS`. Repeated indices: the last
+        value wins, as with single resets."""
         b = self._robot if body is None else body
         c = self._c
         if len(indices) == 1:

@@ -30,7 +30,7 @@ from executive.failures import (
     PerceptionObjectNotInWorld,
 )
 from executive.knowledge import ARM_PREFIX
-from projection._arm_planner import controller_path, swept_objects
+from projection._arm_planner import controller_path, swept_objects, touched_objects
 from projection._objects import object_type as _object_type
 from projection._world import KITCHEN, Contact, World
 
@@ -307,10 +307,10 @@ class ProjectedWorldModel:
             torso = world.torso_height
             start = {a: world.arm_joints(a) for a in arms}
             free = {n for n in world.objects if n not in world.attachments} - allowed
-            kitchen_before = _kitchen_links(world)
-            others = free - _touched(world, free)
+            kitchen_before = {link for _a, link in _kitchen_contacts(world)}
+            others = free - touched_objects(world, free)
             world.move_joints(**goals)  # ValueError for wrong values
-            inside = sorted(_kitchen_links(world) - kitchen_before)
+            inside = sorted({link for _a, link in _kitchen_contacts(world)} - kitchen_before)
             if inside:
                 return ProbeResult(
                     False,
@@ -321,7 +321,7 @@ class ProjectedWorldModel:
                         swept=tuple(f"{KITCHEN}/{link}" for link in inside),
                     ),
                 )
-            others -= _touched(world, others)
+            others -= touched_objects(world, others)
             if not others:
                 return ProbeResult(True)
             path = controller_path(world, "move-joints", arms, goals, torso, start)
@@ -424,11 +424,11 @@ class ProjectedWorldModel:
     ) -> list[str]:
         world = self.world
         goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
-        others = free - _touched(world, free)
+        others = free - touched_objects(world, free)
         if others:
             world.move_torso(torso)
             world.move_joints(**start)
-            others -= _touched(world, others)
+            others -= touched_objects(world, others)
             world.move_torso(goal_torso)
             world.move_joints(**goal)
         if not others:
@@ -501,23 +501,15 @@ def _rounded(*values: float) -> tuple[float, ...]:
     return tuple(round(float(v), 4) for v in values)
 
 
-def _touched(world: World, names: set[str]) -> set[str]:
-    return {c.body_b for c in world.robot_collisions() if c.body_b in names}
-
-
-def _kitchen_contacts(world: World, except_prefix: str) -> set[tuple[str, str]]:
-    """(robot link, kitchen link) pairs in contact, but for robot links named
+def _kitchen_contacts(world: World, except_prefix: str | None = None) -> set[tuple[str, str]]:
+    """(robot link, kitchen link) pairs in contact now, but for robot links named
     ``except_prefix...``."""
     return {
         (c.link_a or "", c.link_b or "")
         for c in world.robot_collisions()
-        if c.body_b == KITCHEN and not (c.link_a or "").startswith(except_prefix)
+        if c.body_b == KITCHEN
+        and not (except_prefix is not None and (c.link_a or "").startswith(except_prefix))
     }
-
-
-def _kitchen_links(world: World) -> set[str]:
-    """The kitchen links the robot (or what it holds) touches now."""
-    return {c.link_b or "" for c in world.robot_collisions() if c.body_b == KITCHEN}
 
 
 def _swept_into(arm: str, index: int, objects: list[str]) -> ManipulationGoalInCollision:

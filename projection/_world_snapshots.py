@@ -89,8 +89,7 @@ class Snapshots(WorldBase):
         for n in [n for n in self._objects if n not in keep]:
             self.remove_object(n)
         self._reset_base(*snap.base)
-        # the base reset just updated every robot collider: see _set_joints
-        self._set_joints(self._dofs, snap.robot_joints, refreshed=True)
+        self._set_joints(self._dofs, snap.robot_joints)
         self._set_joints(list(self._kitchen_joints.values()), snap.kitchen_joints, self._kitchen)
         for n, t, pos, orn, lin, ang in snap.objects:
             obj = self._objects.get(n)
@@ -101,7 +100,7 @@ class Snapshots(WorldBase):
                 obj = self._objects[n]
             pb.resetBasePositionAndOrientation(obj.body, pos, orn, physicsClientId=c)
             # that reset left the body at rest (+0.0 velocities) and just updated its
-            # collider: setting +0.0 again would change nothing (see _set_joints)
+            # collider: setting +0.0 again would change nothing
             if not _at_rest(lin, ang):
                 pb.resetBaseVelocity(obj.body, lin, ang, physicsClientId=c)
         self._objects = {n: self._objects[n] for n, *_ in snap.objects}  # snapshot order
