@@ -20,7 +20,7 @@ from test_reasoning import (  # type: ignore[import-not-found]
 )
 
 import cpl
-from executive import Pose, a, perform, performed
+from executive import DesignatorError, Pose, a, perform, performed
 from plans.reasoning import (
     Exploration,
     ProjectedParameters,
@@ -74,6 +74,16 @@ def test_a_region_is_tried_first_then_the_plans_own_solutions():
         )
         assert all(any(p == q for q in spots) for p in head)
     assert len({tuple(p.position for p in r[:4]) for r in (first, second, third)}) == 3
+
+
+def test_then_must_be_a_location_designator():
+    _world, real, _dream, imagination = setup()
+
+    async def bad() -> Any:
+        with pytest.raises(DesignatorError, match=r"\(then \.\.\.\) takes a location"):
+            list(a.location(among=(Pose((1.0, 0.0, 0.0)),), then="the sink").solutions())
+
+    run_real(real, imagination, bad)
 
 
 @given(
