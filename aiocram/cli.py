@@ -132,11 +132,18 @@ def _add_campaign(subparsers: _Subparsers) -> None:
     add_parser(subparsers)
 
 
+def _add_reference(subparsers: _Subparsers) -> None:
+    from aiocram.reference import add_parser
+
+    add_parser(subparsers)
+
+
 _SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (
     _add_demo,
     _add_show,
     _add_bench,
     _add_campaign,
+    _add_reference,
 )
 """Registrars of the subcommands, in help order."""
 

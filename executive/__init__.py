@@ -31,6 +31,7 @@ from ._perform import perform
 from ._pose import Pose, Transform, yaw_quaternion
 from ._process_module import PMStatus, ProcessModule, pm_execute
 from ._queries import action_of, newest_effective, performed, previous_performed
+from ._ruledoc import Key, Retry, RuleDoc
 from ._rules import (
     RuleSet,
     builtin_rules,
@@ -83,6 +84,9 @@ __all__ = [
     "PMStatus",
     "Pose",
     "ProcessModule",
+    "Key",
+    "Retry",
+    "RuleDoc",
     "RuleSet",
     "SolutionCursor",
     "Transform",

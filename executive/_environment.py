@@ -179,15 +179,18 @@ class Environment:
         priority: float = 0,
         replace: bool = False,
         keys: Any = None,
+        doc: Any = None,
     ) -> None:
         """Add (or with ``replace=True`` override) a rule for this environment only
-        (``keys``: see :meth:`executive.RuleSet.register`)."""
-        self._own_rules().register(kind, type, fn, priority=priority, replace=replace, keys=keys)
+        (``keys``, ``doc``: see :meth:`executive.RuleSet.register`)."""
+        self._own_rules().register(
+            kind, type, fn, priority=priority, replace=replace, keys=keys, doc=doc
+        )
 
     def register_location_generator(
-        self, fn: Callable[..., Any], priority: float = 0, *, keys: Any = None
+        self, fn: Callable[..., Any], priority: float = 0, *, keys: Any = None, doc: Any = None
     ) -> None:
-        self._own_rules().register_location_generator(fn, priority, keys=keys)
+        self._own_rules().register_location_generator(fn, priority, keys=keys, doc=doc)
 
     def register_location_validator(self, fn: Callable[..., Any], priority: float = 0) -> None:
         self._own_rules().register_location_validator(fn, priority)

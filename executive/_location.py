@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 from ._pose import Pose
+from ._ruledoc import Key, RuleDoc
 from ._rules import Rule, builtin_rules
 from .failures import DesignatorError
 
@@ -168,5 +169,24 @@ def _grounding_generator(d: Designator, env: Environment) -> Iterator[Pose]:
 
 
 builtin_rules.register_location_generator(
-    _grounding_generator, 10, keys=("pose", "of", "of-item-object")
+    _grounding_generator,
+    10,
+    doc=RuleDoc(
+        "CRAM's Prolog groundings: the given poses, in the order of the keys.",
+        keys=(
+            Key("pose", "executive.Pose", "this pose (repeat the key for several)", default="-"),
+            Key(
+                "of",
+                "object designator (perceived)",
+                "the object's stored pose; DesignatorError if it was never perceived",
+                default="-",
+            ),
+            Key(
+                "of-item-object",
+                "object designator with a name, or a name",
+                "the object's pose now, from the environment's world model",
+                default="-",
+            ),
+        ),
+    ),
 )

@@ -35,9 +35,21 @@ from typing import Any
 
 from ._designator import Designator
 from ._pose import Pose
+from ._ruledoc import Key, RuleDoc
 from ._rules import WILDCARD, builtin_rules
 from ._solutions import MotionCommand, ObjectData
-from .failures import DesignatorError
+from .failures import (
+    DesignatorError,
+    GripperClosedCompletely,
+    GripperGoalNotReached,
+    ManipulationGoalNotReached,
+    ManipulationPoseUnreachable,
+    NavigationGoalNotReached,
+    NavigationPoseUnreachable,
+    PerceptionObjectNotFound,
+    PtuGoalNotReached,
+    TorsoGoalNotReached,
+)
 
 __all__: list[str] = []
 
@@ -232,38 +244,168 @@ def perceived_object(d: Designator) -> Iterator[ObjectData]:
         )
 
 
-_GRIPPER_KEYS = ("gripper",)
-for _type, _fn, _keys in (
-    ("going", going, ("pose", "target", "speed")),
-    ("moving-torso", moving_torso, ("joint-angle",)),
-    (
-        "looking",
-        looking,
-        ("pose", "target", "object", "frame", "direction", "joint-states"),
-    ),
-    ("detecting", detecting, ("object",)),
-    ("opening-gripper", _open_close("open"), _GRIPPER_KEYS),
-    ("opening", _open_close("open"), _GRIPPER_KEYS),
-    ("closing-gripper", _open_close("close"), _GRIPPER_KEYS),
-    ("closing", _open_close("close"), _GRIPPER_KEYS),
-    ("gripping", gripping, ("gripper", "effort")),
-    ("moving-gripper-joint", moving_gripper_joint, ("gripper", "joint-angle")),
-    (
-        "moving-tcp",
-        moving_tcp,
-        ("left-pose", "right-pose", "left-target", "right-target", "collision-mode"),
-    ),
-    (
-        "moving-arm-joints",
-        moving_arm_joints,
-        (
-            "left-joint-states",
-            "right-joint-states",
-            "left-configuration",
-            "right-configuration",
+# -------------------------------------------------------------------- documentation
+# What each motion reads, and what the process modules that execute it raise: the
+# generated designator reference (aiocram reference) is built from these docs, and the
+# keys declared here are the keys a motion designator may have.
+_POSE = "executive.Pose or location designator"
+_GRIPPER = Key(
+    "gripper", "'left' | 'right' | ('left', 'right')", "the gripper(s) to move", required=True
+)
+_ARM_FAILURES = (ManipulationPoseUnreachable, ManipulationGoalNotReached)
+_GRIPPER_FAILURES = (GripperClosedCompletely, GripperGoalNotReached)
+
+
+def _tcp_key(side: str) -> Key:
+    return Key(f"{side}-pose", _POSE, f"the {side} tool frame's goal", default="arm stays")
+
+
+def _tcp_alias(side: str) -> Key:
+    return Key(f"{side}-target", _POSE, f"CRAM HEAD's name of {side}-pose", default="-")
+
+
+def _joints_key(side: str) -> Key:
+    return Key(
+        f"{side}-joint-states",
+        "7 joint values (rad)",
+        f"the {side} arm's joints",
+        default="arm stays",
+    )
+
+
+def _joints_alias(side: str) -> Key:
+    return Key(
+        f"{side}-configuration",
+        "7 joint values (rad)",
+        f"alias of {side}-joint-states",
+        default="-",
+    )
+
+
+_DOCS: dict[str, RuleDoc] = {
+    "going": RuleDoc(
+        "Drive the base to a pose (map); command move-base.",
+        keys=(
+            Key("pose", _POSE, "the base goal (z = 0)", default="target"),
+            Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
+            Key("speed", "number (m/s)", "speed limit", default="the controller's"),
         ),
+        raises=(NavigationPoseUnreachable, NavigationGoalNotReached),
+        note="One of pose or target is required.",
     ),
+    "moving-torso": RuleDoc(
+        "Set the torso height; command move-torso.",
+        keys=(Key("joint-angle", "number (m)", "torso lift joint position", required=True),),
+        raises=(TorsoGoalNotReached,),
+    ),
+    "looking": RuleDoc(
+        "Point the head (pan/tilt); command move-head.",
+        keys=(
+            Key("pose", _POSE, "the point to look at", default="target"),
+            Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
+            Key("object", "object designator (perceived)", "look at its pose", default="-"),
+            Key("frame", "frame name", "look at the frame's origin", default="-"),
+            Key("direction", "'forward'", "look straight ahead", default="-"),
+            Key("joint-states", "(pan, tilt) (rad)", "set the head joints", default="-"),
+        ),
+        raises=(PtuGoalNotReached,),
+        note="Exactly one of the keys is used, in the order listed.",
+    ),
+    "detecting": RuleDoc(
+        "Perceive the object from where the robot stands, without moving; command detect. "
+        "Returns the perceived object designator(s).",
+        keys=(Key("object", "object designator", "what to find (type, name)", required=True),),
+        raises=(PerceptionObjectNotFound,),
+    ),
+    "opening-gripper": RuleDoc(
+        "Open the gripper fully; command move-gripper-joint (open).",
+        keys=(_GRIPPER,),
+        raises=_GRIPPER_FAILURES,
+    ),
+    "opening": RuleDoc(
+        "CRAM HEAD's name of opening-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
+    ),
+    "closing-gripper": RuleDoc(
+        "Close the gripper fully; command move-gripper-joint (close).",
+        keys=(_GRIPPER,),
+        raises=_GRIPPER_FAILURES,
+    ),
+    "closing": RuleDoc(
+        "CRAM HEAD's name of closing-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
+    ),
+    "gripping": RuleDoc(
+        "Close the gripper on an object; fails if it closes on nothing; command "
+        "move-gripper-joint (grip).",
+        keys=(_GRIPPER, Key("effort", "number (Nm)", "grip effort", default="the driver's")),
+        raises=_GRIPPER_FAILURES,
+    ),
+    "moving-gripper-joint": RuleDoc(
+        "Set the gripper opening; command move-gripper-joint (angle).",
+        keys=(_GRIPPER, Key("joint-angle", "number (m)", "the opening", required=True)),
+        raises=_GRIPPER_FAILURES,
+    ),
+    "moving-tcp": RuleDoc(
+        "Move the tool frame(s) to poses (IK); command move-tcp. A held object that falls "
+        "out on the way is a gripper failure.",
+        keys=(
+            _tcp_key("left"),
+            _tcp_key("right"),
+            _tcp_alias("left"),
+            _tcp_alias("right"),
+            Key(
+                "collision-mode",
+                "None | 'allow-hand' | 'allow-all'",
+                "which contacts the arm planner allows",
+                default="None: none",
+            ),
+        ),
+        raises=(*_ARM_FAILURES, GripperClosedCompletely),
+        note="At least one of left-pose and right-pose is required.",
+    ),
+    "moving-arm-joints": RuleDoc(
+        "Set the arm joints; command move-joints.",
+        keys=(
+            _joints_key("left"),
+            _joints_key("right"),
+            _joints_alias("left"),
+            _joints_alias("right"),
+        ),
+        raises=(*_ARM_FAILURES, GripperClosedCompletely),
+        note="At least one arm's joints are required.",
+    ),
+}
+
+for _type, _fn in (
+    ("going", going),
+    ("moving-torso", moving_torso),
+    ("looking", looking),
+    ("detecting", detecting),
+    ("opening-gripper", _open_close("open")),
+    ("opening", _open_close("open")),
+    ("closing-gripper", _open_close("close")),
+    ("closing", _open_close("close")),
+    ("gripping", gripping),
+    ("moving-gripper-joint", moving_gripper_joint),
+    ("moving-tcp", moving_tcp),
+    ("moving-arm-joints", moving_arm_joints),
 ):
-    # keys declared: a motion with a key no rule reads fails to resolve, listing them
-    builtin_rules.register("motion", _type, _fn, keys=_keys)
-builtin_rules.register("object", WILDCARD, perceived_object, priority=1000)
+    # keys declared (by the doc): a motion with a key no rule reads fails to resolve
+    builtin_rules.register("motion", _type, _fn, doc=_DOCS[_type])
+builtin_rules.register(
+    "object",
+    WILDCARD,
+    perceived_object,
+    priority=1000,
+    doc=RuleDoc(
+        "Fallback for every object designator: one that carries a pose (it was perceived, "
+        "or the pose was given) resolves to its ObjectData; one without has no solution.",
+        keys=(
+            Key("pose", "executive.Pose", "where the object is", default="no solution"),
+            Key("name", "str", "the object's name in the world", default="-"),
+            Key("type", "str", "the object type", default="-"),
+            Key("transform", "executive.Transform", "base -> object when perceived", default="-"),
+        ),
+        note="Every other key is kept in ObjectData.extra.",
+        any_key=True,
+    ),
+)

@@ -33,6 +33,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Final, TypeVar
 
+from ._ruledoc import RuleDoc
+
 __all__ = [
     "KINDS",
     "WILDCARD",
@@ -92,6 +94,9 @@ class Rule:
     #: The property keys the rule understands (``type`` is always known), or ``None``: not
     #: declared, any key accepted. See :meth:`RuleSet.register`.
     keys: frozenset[str] | None = None
+    #: What the rule documents about itself (keys, failures, retries), or ``None``; the
+    #: designator reference is generated from it (see :class:`executive.RuleDoc`).
+    doc: RuleDoc | None = None
 
     @property
     def name(self) -> str:
@@ -106,6 +111,24 @@ def _declared(keys: Iterable[str] | None) -> frozenset[str] | None:
     if isinstance(keys, str):
         raise TypeError(f"keys must be a collection of key names, got the string {keys!r}")
     return frozenset(str(k).replace("_", "-") for k in keys)
+
+
+def _keys_and_doc(
+    keys: Iterable[str] | None, doc: RuleDoc | None, what: str
+) -> tuple[frozenset[str] | None, RuleDoc | None]:
+    """The declared keys of a registration: ``doc``'s keys when it has a doc (one source
+    of truth; ``keys`` given too must name the same ones)."""
+    declared = _declared(keys)
+    if doc is None:
+        return declared, None
+    if not isinstance(doc, RuleDoc):
+        raise TypeError(f"{what}: doc must be an executive.RuleDoc, got {doc!r}")
+    if declared is not None and (doc.any_key or declared != doc.key_names):
+        raise ValueError(
+            f"{what}: keys= {sorted(declared)} differ from the doc's keys "
+            f"{sorted(doc.key_names)}; drop keys= (the doc's keys are the declared ones)"
+        )
+    return (None if doc.any_key else doc.key_names), doc
 
 
 class RuleSet:
@@ -159,6 +182,7 @@ class RuleSet:
         priority: float = 0,
         replace: bool = False,
         keys: Iterable[str] | None = None,
+        doc: RuleDoc | None = None,
     ) -> F:
         """Register ``fn(designator[, environment])``, a generator of solutions, for
         designators of ``kind`` (``"action"``, ``"motion"``, ``"object"``) whose ``type``
@@ -175,6 +199,9 @@ class RuleSet:
         Solutions: actions yield ``(plan_function, arguments)``, motions
         ``(command, arguments)``, objects :class:`executive.ObjectData` (or anything with a
         ``pose``). Raise :class:`executive.DesignatorError` for a missing or bad property.
+
+        ``doc``: an :class:`executive.RuleDoc` (keys with types and defaults, failures,
+        retries) for the generated designator reference; its keys are the declared keys.
         """
         if kind == "location":
             raise ValueError(
@@ -187,12 +214,13 @@ class RuleSet:
         if not isinstance(type, str) or not type:
             raise TypeError(f"a rule's type must be a non-empty string (or '*'), got {type!r}")
         call = _arity_adapter(fn, 1, f"{kind} rule for {type!r}")
+        declared, doc = _keys_and_doc(keys, doc, f"{kind} rule for {type!r}")
         seq = self._bump()
         key = (kind, type)
         if replace:
             self._replaced.add(key)
         self._rules.setdefault(key, []).append(
-            Rule(kind, type, priority, seq, fn, call, _declared(keys))
+            Rule(kind, type, priority, seq, fn, call, declared, doc)
         )
         return fn
 
@@ -204,27 +232,35 @@ class RuleSet:
         priority: float = 0,
         replace: bool = False,
         keys: Iterable[str] | None = None,
+        doc: RuleDoc | None = None,
     ) -> Callable[[F], F]:
         """Decorator form of :meth:`register`."""
 
         def deco(fn: F) -> F:
-            return self.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
+            return self.register(
+                kind, type, fn, priority=priority, replace=replace, keys=keys, doc=doc
+            )
 
         return deco
 
     def register_location_generator(
-        self, fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+        self,
+        fn: F,
+        priority: float = 0,
+        *,
+        keys: Iterable[str] | None = None,
+        doc: RuleDoc | None = None,
     ) -> F:
         """Register ``fn(designator[, environment])`` yielding candidate poses (possibly
         infinitely many). Generators run in ascending priority (CRAM: Prolog groundings at
         10, costmaps at 20); their outputs are concatenated lazily. ``keys``: the location
         keys it understands; when every generator declares them, a location designator with
-        another key fails to resolve, listing the known ones (as :meth:`register`)."""
+        another key fails to resolve, listing the known ones (as :meth:`register`);
+        ``doc`` as for :meth:`register`."""
         call = _arity_adapter(fn, 1, "location generator")
+        declared, doc = _keys_and_doc(keys, doc, "location generator")
         seq = self._bump()
-        self._generators.append(
-            Rule("location", WILDCARD, priority, seq, fn, call, _declared(keys))
-        )
+        self._generators.append(Rule("location", WILDCARD, priority, seq, fn, call, declared, doc))
         return fn
 
     def register_location_validator(self, fn: F, priority: float = 0) -> F:
@@ -342,6 +378,11 @@ class RuleSet:
         """Location validators in call order."""
         return self._location("validators")
 
+    def documented_rules(self, kind: str) -> dict[str, tuple[Rule, ...]]:
+        """Every concrete type of ``kind`` with the rules that ground it, in call order
+        (types sorted): what the designator reference walks."""
+        return {t: self.rules_for(kind, t) for t in self.known_types(kind)}
+
     def known_types(self, kind: str) -> list[str]:
         """Every concrete type with a rule of ``kind`` (for error messages)."""
         types: set[str] = set()
@@ -368,9 +409,12 @@ def register_rule(
     priority: float = 0,
     replace: bool = False,
     keys: Iterable[str] | None = None,
+    doc: RuleDoc | None = None,
 ) -> F:
     """Register a rule in the static rule set (see :meth:`RuleSet.register`)."""
-    return static_rules.register(kind, type, fn, priority=priority, replace=replace, keys=keys)
+    return static_rules.register(
+        kind, type, fn, priority=priority, replace=replace, keys=keys, doc=doc
+    )
 
 
 def rule(
@@ -380,17 +424,18 @@ def rule(
     priority: float = 0,
     replace: bool = False,
     keys: Iterable[str] | None = None,
+    doc: RuleDoc | None = None,
 ) -> Callable[[F], F]:
-    """Decorator: ``@executive.rule("action", "picking-up", keys=(...))`` registers
+    """Decorator: ``@executive.rule("action", "picking-up", doc=RuleDoc(...))`` registers
     statically."""
-    return static_rules.rule(kind, type, priority=priority, replace=replace, keys=keys)
+    return static_rules.rule(kind, type, priority=priority, replace=replace, keys=keys, doc=doc)
 
 
 def register_location_generator(
-    fn: F, priority: float = 0, *, keys: Iterable[str] | None = None
+    fn: F, priority: float = 0, *, keys: Iterable[str] | None = None, doc: RuleDoc | None = None
 ) -> F:
     """Register a location generator in the static rule set."""
-    return static_rules.register_location_generator(fn, priority, keys=keys)
+    return static_rules.register_location_generator(fn, priority, keys=keys, doc=doc)
 
 
 def register_location_validator(fn: F, priority: float = 0) -> F:

@@ -6,6 +6,8 @@ the rule (before anything moves).
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Callable
 from typing import Any
 
 from executive import (
@@ -19,11 +21,20 @@ from executive import (
 
 from ._common import as_location
 
-__all__ = ["ROBOT"]
+__all__ = ["ROBOT", "default_of"]
 
 
 #: The robot name in ``reachable-for`` / ``visible-for`` location designators.
 ROBOT = "pr2"
+
+
+def default_of(fn: Callable[..., Any], parameter: str) -> int:
+    """The default of ``fn``'s integer ``parameter`` (a check's or plan's retry budget), so
+    a rule's :class:`executive.RuleDoc` states the count the code uses."""
+    default = inspect.signature(fn).parameters[parameter].default
+    if isinstance(default, bool) or not isinstance(default, int):
+        raise TypeError(f"{fn.__qualname__}({parameter}=...) has no integer default")
+    return default
 
 
 def _location(d: Designator, key: str) -> LocationDesignator:

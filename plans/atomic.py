@@ -39,6 +39,7 @@ from executive import (
     Designator,
     DesignatorError,
     GripperLowLevelFailure,
+    Key,
     ManipulationLowLevelFailure,
     NavigationLowLevelFailure,
     ObjectData,
@@ -46,6 +47,9 @@ from executive import (
     PerceptionLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Retry,
+    RuleDoc,
+    TorsoLowLevelFailure,
     a,
     an,
     current_environment,
@@ -77,6 +81,10 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- helpers
+_TARGET = "location designator or executive.Pose"
+_GRIPPER = Key("gripper", "'left' | 'right' | ('left', 'right')", "the gripper(s)", required=True)
+
+
 def _arm(d: Designator, key: str = "arm", default: str | None = None) -> str:
     value = d.get(key, default)
     if value not in knowledge.ARMS:
@@ -118,7 +126,29 @@ async def go_to_target(target: Any) -> None:
         emit(RobotStateChanged(reason="going"))
 
 
-@rule("action", "going", keys=("target", "pose"))
+@rule(
+    "action",
+    "going",
+    doc=RuleDoc(
+        "Drive the base to the target (plan go-to-target), with no collision check: use "
+        "navigating to choose a collision-free pose.",
+        keys=(
+            Key("target", _TARGET, "where the base goes (map)", default="pose"),
+            Key("pose", _TARGET, "alias of target", default="-"),
+        ),
+        raises=(NavigationLowLevelFailure,),
+        retries=(
+            Retry(
+                0,
+                (NavigationLowLevelFailure,),
+                "none: CRAM HEAD's counter of 0, the failure propagates",
+                counter="going",
+            ),
+        ),
+        motions=("going",),
+        note="One of target or pose is required. Emits RobotStateChanged, also on failure.",
+    ),
+)
 def _going(d: Designator) -> Iterator[Any]:
     target = d.get("target", d.get("pose"))
     if target is None:
@@ -140,7 +170,32 @@ async def look_at(motion: Designator) -> None:
     )
 
 
-@rule("action", "looking", keys=("target", "pose", "object", "frame", "direction"))
+@rule(
+    "action",
+    "looking",
+    doc=RuleDoc(
+        "Point the head (plan look-at); the base does not turn: use turning-towards for a "
+        "target the head cannot reach.",
+        keys=(
+            Key("target", _TARGET, "the point to look at", default="pose"),
+            Key("pose", _TARGET, "alias of target", default="-"),
+            Key("object", "object designator (perceived)", "look at its pose", default="-"),
+            Key("frame", "frame name", "look at the frame's origin", default="-"),
+            Key("direction", "'forward'", "look straight ahead", default="-"),
+        ),
+        raises=(PtuLowLevelFailure,),
+        retries=(
+            Retry(
+                0,
+                (PtuLowLevelFailure,),
+                "none: CRAM HEAD's empty handler, the failure propagates",
+                counter="looking",
+            ),
+        ),
+        motions=("looking",),
+        note="One of the keys is required; the first given, in the order listed, is used.",
+    ),
+)
 def _looking(d: Designator) -> Iterator[Any]:
     props: dict[str, Any] = {}
     for key in ("target", "pose"):
@@ -193,7 +248,34 @@ async def perceive(object_designator: ObjectDesignator) -> ObjectDesignator:
     return perceived
 
 
-@rule("action", "detecting", keys=("object",))
+@rule(
+    "action",
+    "detecting",
+    doc=RuleDoc(
+        "Perceive the object from where the robot stands (plan perceive): the robot "
+        "neither drives nor turns its head. Returns the perceived object designator "
+        "(with name, pose and transform), equated to the one given; emits ObjectPerceived.",
+        keys=(
+            Key(
+                "object",
+                "object designator",
+                "what to find: type, optionally name (cad-model: 1 retry only)",
+                required=True,
+            ),
+        ),
+        raises=(PerceptionLowLevelFailure,),
+        retries=(
+            Retry(
+                4,
+                (PerceptionLowLevelFailure,),
+                "detect again from the same place",
+                counter="detecting",
+                note="1 if the object designator has a cad-model",
+            ),
+        ),
+        motions=("detecting",),
+    ),
+)
 def _detecting(d: Designator) -> Iterator[Any]:
     obj = d.get("object")
     if not isinstance(obj, ObjectDesignator):
@@ -208,7 +290,16 @@ async def move_torso(joint_angle: float) -> None:
     await perform(a.motion(type="moving-torso", joint_angle=joint_angle))
 
 
-@rule("action", "moving-torso", keys=("joint-angle",))
+@rule(
+    "action",
+    "moving-torso",
+    doc=RuleDoc(
+        "Set the torso height (plan move-torso).",
+        keys=(Key("joint-angle", "number (m)", "the torso lift joint's position", required=True),),
+        raises=(TorsoLowLevelFailure,),
+        motions=("moving-torso",),
+    ),
+)
 def _moving_torso(d: Designator) -> Iterator[Any]:
     angle = d.get("joint-angle")
     if not isinstance(angle, (int, float)):
@@ -277,8 +368,36 @@ def _arm_motion_rule(action_type: str) -> Any:
     return ground
 
 
+def _arm_motion_doc(action_type: str) -> RuleDoc:
+    mode = _COLLISION_MODES[action_type]
+    return RuleDoc(
+        f"Move the tool frame(s) through the waypoints (plan move-arms-in-sequence), "
+        f"collision mode {mode or 'None (no contact allowed)'}.",
+        keys=(
+            Key(
+                "left-poses",
+                "tuple of executive.Pose (base_footprint or map)",
+                "the left tool frame's waypoints",
+                default="left arm stays",
+            ),
+            Key(
+                "right-poses",
+                "tuple of executive.Pose (base_footprint or map)",
+                "the right tool frame's waypoints",
+                default="right arm stays",
+            ),
+        ),
+        raises=(ManipulationLowLevelFailure, GripperLowLevelFailure),
+        ignores=(ManipulationLowLevelFailure,),
+        motions=("moving-tcp",),
+        note="A manipulation failure at an intermediate waypoint is ignored, at the last it "
+        "propagates; a gripper failure (the held object fell out) always propagates. The "
+        "shorter list is padded: that arm stays.",
+    )
+
+
 for _action_type in _COLLISION_MODES:
-    rule("action", _action_type, keys=("left-poses", "right-poses"))(_arm_motion_rule(_action_type))
+    rule("action", _action_type, doc=_arm_motion_doc(_action_type))(_arm_motion_rule(_action_type))
 
 
 @cpl.plan(name="position-arms")
@@ -326,7 +445,35 @@ def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
         raise DesignatorError(f"{d.short()}: {exc}", d) from None
 
 
-@rule("action", "positioning-arm", keys=("left-configuration", "right-configuration"))
+_CONFIGURATION = "'park' | 'carry' | 7 joint values (rad)"
+
+
+@rule(
+    "action",
+    "positioning-arm",
+    doc=RuleDoc(
+        "Move the arms to joint configurations (plan position-arms); park_arms() is both "
+        "arms to 'carry' (CRAM HEAD's default).",
+        keys=(
+            Key(
+                "left-configuration",
+                _CONFIGURATION,
+                "the left arm's configuration",
+                default="left arm stays",
+            ),
+            Key(
+                "right-configuration",
+                _CONFIGURATION,
+                "the right arm's configuration",
+                default="right arm stays",
+            ),
+        ),
+        ignores=(ManipulationLowLevelFailure, GripperLowLevelFailure),
+        motions=("moving-arm-joints",),
+        note="At least one configuration is required. Failures are ignored; a held object "
+        "that fell out is logged and the world model told (ObjectDetached).",
+    ),
+)
 def _positioning_arm(d: Designator) -> Iterator[Any]:
     left, right = _configuration(d, "left"), _configuration(d, "right")
     if left is None and right is None:
@@ -362,7 +509,17 @@ async def grip(gripper: Any, effort: float | None = None) -> None:
     )
 
 
-@rule("action", "gripping", keys=("gripper", "effort"))
+@rule(
+    "action",
+    "gripping",
+    doc=RuleDoc(
+        "Close the gripper on the object between its fingers (plan grip).",
+        keys=(_GRIPPER, Key("effort", "number (Nm)", "grip effort", default="the driver's")),
+        raises=(GripperLowLevelFailure,),
+        retries=(Retry(1, (GripperLowLevelFailure,), "grip again", counter="regrips"),),
+        motions=("gripping",),
+    ),
+)
 def _gripping(d: Designator) -> Iterator[Any]:
     effort = d.get("effort")
     yield grip, {"gripper": _gripper(d), "effort": None if effort is None else float(effort)}
@@ -376,7 +533,17 @@ async def release(gripper: Any) -> None:
     )
 
 
-@rule("action", "releasing", keys=("gripper",))
+@rule(
+    "action",
+    "releasing",
+    doc=RuleDoc(
+        "Open the gripper (plan release); the world model is not told: emit ObjectDetached "
+        "(placing does).",
+        keys=(_GRIPPER,),
+        ignores=(GripperLowLevelFailure,),
+        motions=("opening-gripper",),
+    ),
+)
 def _releasing(d: Designator) -> Iterator[Any]:
     yield release, {"gripper": _gripper(d)}
 
@@ -397,9 +564,24 @@ def _open_close_rule(action_type: str) -> Any:
     return ground
 
 
+def _open_close_doc(verb: str, alias: bool) -> RuleDoc:
+    summary = (
+        f"With a gripper: CRAM HEAD's name of {verb}-gripper (no solution without one)."
+        if alias
+        else f"{'Open' if verb == 'opening' else 'Close'} the gripper fully (plan "
+        "open-or-close-gripper)."
+    )
+    return RuleDoc(
+        summary,
+        keys=(_GRIPPER,),
+        ignores=(GripperLowLevelFailure,),
+        motions=(f"{verb}-gripper",),
+    )
+
+
 for _verb in ("opening", "closing"):
-    rule("action", f"{_verb}-gripper", keys=("gripper",))(_open_close_rule(_verb))
-    rule("action", _verb, keys=("gripper",))(_open_close_rule(_verb))
+    rule("action", f"{_verb}-gripper", doc=_open_close_doc(_verb, False))(_open_close_rule(_verb))
+    rule("action", _verb, doc=_open_close_doc(_verb, True))(_open_close_rule(_verb))
 
 
 @cpl.plan(name="set-gripper-to-position")
@@ -409,7 +591,24 @@ async def set_gripper_to_position(gripper: Any, position: float) -> None:
     await perform_ignoring(motion, GripperLowLevelFailure)
 
 
-@rule("action", "setting-gripper", keys=("gripper", "position"))
+@rule(
+    "action",
+    "setting-gripper",
+    doc=RuleDoc(
+        "Set the gripper opening (plan set-gripper-to-position).",
+        keys=(
+            _GRIPPER,
+            Key(
+                "position",
+                f"number (m), 0 to {knowledge.GRIPPER_MAX_OPENING}",
+                "the opening; out of range: DesignatorError before anything moves",
+                required=True,
+            ),
+        ),
+        ignores=(GripperLowLevelFailure,),
+        motions=("moving-gripper-joint",),
+    ),
+)
 def _setting_gripper(d: Designator) -> Iterator[Any]:
     position = d.get("position")
     if isinstance(position, bool) or not isinstance(position, (int, float)):

@@ -24,6 +24,7 @@ import cpl
 from executive import (
     Designator,
     DesignatorError,
+    Key,
     LocationDesignator,
     LookingHighLevelFailure,
     ManipulationLowLevelFailure,
@@ -32,6 +33,8 @@ from executive import (
     ObjectUndeliverable,
     ObjectUnreachable,
     Pose,
+    Retry,
+    RuleDoc,
     SolutionCursor,
     a,
     an,
@@ -50,7 +53,7 @@ from ._common import (
     to_map,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object
+from ._designators import ROBOT, _check_places, _location, _object, default_of
 from .checks import (
     PlacingPoseUnstable,
     check_placing_collisions,
@@ -196,7 +199,67 @@ def _held_type(obj: ObjectDesignator) -> str:
     return current_environment().world.object_type(name)
 
 
-@rule("action", "delivering", keys=("object", "target", "robot-location", "place-action"))
+@rule(
+    "action",
+    "delivering",
+    doc=RuleDoc(
+        "Put the held object at the target (plan deliver): navigate to a base pose that "
+        "reaches the target, turn towards it, check the pose is stable, choose a placing "
+        "that works in the belief, place, back off.",
+        keys=(
+            Key("object", "object designator", "the held object", required=True),
+            Key(
+                "target",
+                "location designator or executive.Pose",
+                "where the object goes: an explicit pose keeps its orientation (then + 180 "
+                "degrees); a costmap sample keeps the held yaw (free-yaw)",
+                required=True,
+            ),
+            Key(
+                "robot-location",
+                "location designator",
+                "where the base may stand",
+                default="reachable-for the target",
+            ),
+            Key(
+                "place-action",
+                "placing action designator",
+                "its target (projection reasoning injects it)",
+                default="-",
+            ),
+        ),
+        raises=(ObjectUndeliverable,),
+        retries=(
+            Retry(
+                2,
+                (DesignatorError, ObjectUndeliverable),
+                "the target's next sample, and a new robot location for it",
+                counter="deliver-targets",
+            ),
+            Retry(
+                5,
+                DELIVER_RELOCATION_FAILURES,
+                "the robot location's next base pose",
+                counter="relocations",
+            ),
+            Retry(
+                2,
+                DELIVER_TARGET_FAILURES,
+                "the target's next sample, from the same base pose",
+                counter="targets",
+            ),
+            Retry(
+                default_of(check_placing_collisions, "retries"),
+                (ObjectUnreachable,),
+                "the next placing solution (yaw variant, target sample)",
+                probes=True,
+            ),
+        ),
+        performs=("navigating", "turning-towards", "placing", "going"),
+        note="A target on a surface the world does not have is a DesignatorError before "
+        "anything moves.",
+    ),
+)
 def _delivering(d: Designator) -> Iterator[Any]:
     _check_places(d, "target", "robot-location")
     yield (

@@ -21,9 +21,11 @@ from executive import (
     Designator,
     DesignatorError,
     GripperLowLevelFailure,
+    Key,
     ManipulationLowLevelFailure,
     ObjectDesignator,
     Pose,
+    RuleDoc,
     Transform,
     an,
     current_environment,
@@ -173,5 +175,34 @@ def _container_rule(action_type: str) -> Any:
     return ground
 
 
+def _container_doc(verb: str) -> RuleDoc:
+    motion = "pull" if verb == "opening" else "push"
+    return RuleDoc(
+        f"With an object: {verb} a drawer from where the robot stands (plan "
+        f"{'open' if verb == 'opening' else 'close'}-container): reach the handle, "
+        f"take it, {motion} it by distance, ContainerOpened/Closed, let go, retract.",
+        keys=(
+            Key(
+                "object",
+                "drawer object designator with urdf-name (its main link)",
+                "the drawer (no solution without it)",
+                required=True,
+            ),
+            Key("arm", "'left' | 'right'", "the arm", default="'left'"),
+            Key(
+                "distance",
+                "number (m) > 0",
+                "how far; beyond the drawer's travel: DesignatorError before anything moves",
+                default=str(DEFAULT_DISTANCE),
+            ),
+        ),
+        raises=(ManipulationLowLevelFailure,),
+        ignores=(ManipulationLowLevelFailure, GripperLowLevelFailure),
+        performs=("setting-gripper", "reaching", "grasping", f"{motion}ing", "retracting"),
+        note="Reach and grasp failures propagate; the rest is ignored. Usually performed "
+        "through accessing / sealing, which navigate and check it first.",
+    )
+
+
 for _verb in ("opening", "closing"):
-    rule("action", _verb, keys=("object", "arm", "distance"))(_container_rule(_verb))
+    rule("action", _verb, doc=_container_doc(_verb))(_container_rule(_verb))

@@ -26,9 +26,12 @@ from executive import (
     EnvironmentManipulationImpossible,
     EnvironmentUnreachable,
     GripperLowLevelFailure,
+    Key,
     ManipulationLowLevelFailure,
     NavigationGoalInCollision,
     ObjectDesignator,
+    Retry,
+    RuleDoc,
     SolutionCursor,
     a,
     an,
@@ -127,5 +130,35 @@ def _environment_rule(action_type: str) -> Any:
     return ground
 
 
+def _environment_doc(verb: str) -> RuleDoc:
+    act, acting = ("open", "opening") if verb == "accessing" else ("close", "closing")
+    return RuleDoc(
+        f"{act.capitalize()} the drawer a location is in (plan manipulate-environment): "
+        f"navigate to reach its handle, check the {acting} in the belief, perform it.",
+        keys=(
+            Key(
+                "location",
+                "location designator (in <drawer>)",
+                "the drawer's inside, e.g. where the spoon is",
+                required=True,
+            ),
+            Key("arm", "'left' | 'right'", "the arm", default="'left'"),
+            Key("distance", "number (m)", "how far", default=str(DEFAULT_DISTANCE)),
+        ),
+        raises=(EnvironmentManipulationImpossible,),
+        retries=(
+            Retry(
+                10,
+                ENVIRONMENT_RELOCATION_FAILURES,
+                "the next base pose reaching the handle",
+                counter="relocations",
+            ),
+        ),
+        performs=("navigating", acting),
+        note="Designator errors become EnvironmentManipulationImpossible. A base that "
+        "stopped short acts from where it stopped.",
+    )
+
+
 for _verb in ("accessing", "sealing"):
-    rule("action", _verb, keys=("location", "arm", "distance"))(_environment_rule(_verb))
+    rule("action", _verb, doc=_environment_doc(_verb))(_environment_rule(_verb))

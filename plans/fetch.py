@@ -29,6 +29,7 @@ import cpl
 from executive import (
     Designator,
     GripperLowLevelFailure,
+    Key,
     LocationDesignator,
     LookingHighLevelFailure,
     ManipulationLowLevelFailure,
@@ -39,6 +40,8 @@ from executive import (
     ObjectUnreachable,
     PerceptionLowLevelFailure,
     Pose,
+    Retry,
+    RuleDoc,
     SolutionCursor,
     a,
     an,
@@ -54,7 +57,7 @@ from ._common import (
     tally,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _object
+from ._designators import ROBOT, _check_places, _object, default_of
 from .atomic import park_arms
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
@@ -282,7 +285,62 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
     return arm, grasp
 
 
-@rule("action", "fetching", keys=("object", "arm", "robot-location", "pick-up-action"))
+@rule(
+    "action",
+    "fetching",
+    doc=RuleDoc(
+        "Pick up a perceived object (plan fetch): navigate to a base pose that reaches it, "
+        "turn towards it, detect it again, choose a picking-up solution that works in the "
+        "belief, pick it up, back off, park the arms (carry). Returns the newest object "
+        "designator.",
+        keys=(
+            Key(
+                "object",
+                "object designator (perceived, with a name)",
+                "what to fetch (searching returns it)",
+                required=True,
+            ),
+            Key("arm", "'left' | 'right'", "the arm to pick with", default="right, then left"),
+            Key(
+                "robot-location",
+                "location designator",
+                "where the base may stand",
+                default="reachable-for the object's pose now (on the floor: around it)",
+            ),
+            Key(
+                "pick-up-action",
+                "picking-up action designator",
+                "its arm and grasp (projection reasoning injects it)",
+                default="-",
+            ),
+        ),
+        raises=(ObjectUnfetchable, ObjectUnreachableOnFloor),
+        retries=(
+            Retry(
+                10,
+                FETCH_RELOCATION_FAILURES,
+                "the robot location's next base pose",
+                counter="relocations",
+            ),
+            Retry(
+                1,
+                (GripperLowLevelFailure,),
+                "park the arms (backing off if needed), detect and pick again",
+                counter="regrasps",
+            ),
+            Retry(
+                default_of(check_picking_up_collisions, "retries"),
+                (ObjectUnreachable,),
+                "the next picking-up solution (arm, grasp, approach)",
+                probes=True,
+            ),
+        ),
+        performs=("navigating", "turning-towards", "detecting", "picking-up", "going"),
+        note="Designator errors become ObjectUnfetchable. An object believed on the floor "
+        "(below 0.3 m) is fetched from base poses around it; out of reach there: "
+        "ObjectUnreachableOnFloor (logged, counted).",
+    ),
+)
 def _fetching(d: Designator) -> Iterator[Any]:
     _check_places(d, "robot-location")
     yield (

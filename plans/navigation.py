@@ -27,6 +27,7 @@ from executive import (
     ArmSweepProbe,
     Designator,
     DesignatorError,
+    Key,
     LocationDesignator,
     LookingHighLevelFailure,
     NavigationGoalInCollision,
@@ -34,6 +35,8 @@ from executive import (
     NavigationLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Retry,
+    RuleDoc,
     a,
     an,
     current_environment,
@@ -50,7 +53,7 @@ from ._common import (
     to_map,
     translating_failures,
 )
-from ._designators import _check_places, _location
+from ._designators import _check_places, _location, default_of
 from .atomic import park_arms
 from .checks import check_navigating_collisions
 
@@ -127,7 +130,42 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
-@rule("action", "navigating", keys=("location",))
+@rule(
+    "action",
+    "navigating",
+    doc=RuleDoc(
+        "Drive to a collision-free pose of the location (plan go-without-collisions): park "
+        "the arms (carry; backing off first if the park would sweep through something), "
+        "probe the location's samples in the belief, drive to the first free one.",
+        keys=(
+            Key(
+                "location",
+                "location designator or executive.Pose",
+                "where the base may stand (e.g. reachable-for / visible-for)",
+                required=True,
+            ),
+        ),
+        raises=(NavigationGoalInCollision,),
+        retries=(
+            Retry(
+                default_of(check_navigating_collisions, "samples"),
+                (NavigationGoalInCollision,),
+                "the location's next sample",
+                probes=True,
+            ),
+            Retry(
+                NAVIGATION_RETRIES,
+                (NavigationLowLevelFailure,),
+                "drive again from where the base stopped (within 5 cm / 0.1 rad counts)",
+                counter="navigation",
+            ),
+        ),
+        performs=("positioning-arm", "going"),
+        note="A (on ...) surface the world does not have is a DesignatorError before "
+        "anything moves. When the base stops short for good: BaseStoppedShort (a "
+        "NavigationGoalInCollision).",
+    ),
+)
 def _navigating(d: Designator) -> Iterator[Any]:
     _check_places(d, "location")
     yield go_without_collisions, {"location": _location(d, "location")}
@@ -176,7 +214,32 @@ async def _turn_base_towards(target: LocationDesignator) -> None:
     await perform_ignoring(an.action(type="looking", direction="forward"), PtuLowLevelFailure)
 
 
-@rule("action", "turning-towards", keys=("target",))
+@rule(
+    "action",
+    "turning-towards",
+    doc=RuleDoc(
+        "Look at the target, turning the base towards it when the head cannot (plan turn-towards).",
+        keys=(
+            Key(
+                "target",
+                "location designator or executive.Pose",
+                "the point to look at",
+                required=True,
+            ),
+        ),
+        raises=(LookingHighLevelFailure,),
+        retries=(
+            Retry(
+                1,
+                (PtuLowLevelFailure,),
+                "turn the base towards the target (navigating), look forward, look again",
+                counter="turns",
+            ),
+        ),
+        performs=("looking", "navigating"),
+        note="Designator errors and navigation failures also become LookingHighLevelFailure.",
+    ),
+)
 def _turning_towards(d: Designator) -> Iterator[Any]:
     yield turn_towards, {"target": _location(d, "target")}
 

@@ -42,10 +42,12 @@ from executive import (
     DesignatorError,
     GripperClosedCompletely,
     GripperLowLevelFailure,
+    Key,
     LocationDesignator,
     ManipulationLowLevelFailure,
     ObjectDesignator,
     Pose,
+    RuleDoc,
     Transform,
     an,
     current_environment,
@@ -269,7 +271,38 @@ def _approaches(reach: Sequence[Pose]) -> list[tuple[Pose, ...]]:
     return [tuple(reach), (above, *reach)]
 
 
-@rule("action", "picking-up", keys=("object", "arm", "grasp"))
+@rule(
+    "action",
+    "picking-up",
+    doc=RuleDoc(
+        "Pick up a perceived object from where the robot stands (plan pick-up): open the "
+        "gripper while reaching, grasp, grip, lift; the object is attached to the wrist.",
+        keys=(
+            Key(
+                "object",
+                "object designator (perceived: detecting returned it)",
+                "the object; its newest member's transform or pose is used",
+                required=True,
+            ),
+            Key("arm", "'left' | 'right'", "the arm", default="right, then left"),
+            Key(
+                "grasp",
+                "grasp name (executive.knowledge.grasps(type))",
+                "how to hold it: 'top', 'back', 'front', 'left-side', 'right-side'",
+                default="the type's grasps in knowledge order",
+            ),
+        ),
+        raises=(ManipulationLowLevelFailure, GripperLowLevelFailure),
+        ignores=(ManipulationLowLevelFailure,),
+        performs=("setting-gripper", "reaching", "grasping", "gripping", "lifting", "retracting"),
+        note="Solutions: arm-major, grasp-minor, each reached straight and then from 0.2 m "
+        "above (a bowl also turned by 90, -90 and 180 degrees); perform() takes the first. "
+        "plans.check_picking_up_collisions(action) probes them in the belief and returns the "
+        "first that works (fetching does). Grasping and lifting failures are ignored; a "
+        "failed grip backs the hand out first; a grip that holds nothing, or an object lost "
+        "while lifting, raises GripperClosedCompletely (ObjectDetached told).",
+    ),
+)
 def _picking_up(d: Designator) -> Iterator[Any]:
     given = d.get("object")
     if not isinstance(given, ObjectDesignator):
@@ -400,7 +433,44 @@ def placing_waypoints(
     return g.name, out
 
 
-@rule("action", "placing", keys=("object", "arm", "target", "free-yaw"))
+@rule(
+    "action",
+    "placing",
+    doc=RuleDoc(
+        "Put a held object down from where the robot stands (plan place): reach, put, "
+        "open the gripper, ObjectDetached, retract. The object lands at the target with "
+        "the grasp it was picked with.",
+        keys=(
+            Key(
+                "object",
+                "object designator with a name",
+                "which held object",
+                default="whatever the arm(s) hold",
+            ),
+            Key("arm", "'left' | 'right'", "the holding arm", default="each arm that holds one"),
+            Key(
+                "target",
+                "location designator or executive.Pose (map or base_footprint)",
+                "where the object's origin goes; its orientation is the object's",
+                default="straight back down where it was lifted from",
+            ),
+            Key(
+                "free-yaw",
+                "bool",
+                "ignore the target's orientation: try the held yaw, then turned by 90, -90, "
+                "180 degrees (round types: every 45)",
+                default="False: the target's yaw, then that + 180 degrees",
+            ),
+        ),
+        raises=(ManipulationLowLevelFailure,),
+        ignores=(ManipulationLowLevelFailure, GripperLowLevelFailure),
+        performs=("reaching", "putting", "releasing", "retracting"),
+        note="DesignatorError if the robot holds no such object. The reach failure "
+        "propagates; putting, releasing and retracting failures are ignored. Solutions: "
+        "each target solution, then its yaw variants; plans.check_placing_collisions(action) "
+        "probes them (delivering does).",
+    ),
+)
 def _placing(d: Designator) -> Iterator[Any]:
     world = current_environment().world
     given = d.get("object")

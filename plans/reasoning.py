@@ -32,8 +32,10 @@ from executive import (
     Designator,
     DesignatorError,
     Environment,
+    Key,
     LocationDesignator,
     Pose,
+    RuleDoc,
     SceneSetup,
     a,
     current_environment,
@@ -149,7 +151,22 @@ def _region_then(poses: tuple[Pose, ...], fallback: LocationDesignator) -> Itera
             yield p
 
 
-register_location_generator(_among_generator, 10, keys=("among", "then"))
+register_location_generator(
+    _among_generator,
+    10,
+    doc=RuleDoc(
+        "An imagined run's region of poses, then (optionally) the plan's own designator.",
+        keys=(
+            Key("among", "tuple of executive.Pose", "exactly these poses, in order", default="-"),
+            Key(
+                "then",
+                "location designator",
+                "after the poses, its solutions that are not among them",
+                default="nothing after the poses",
+            ),
+        ),
+    ),
+)
 
 
 @dataclass(eq=False)

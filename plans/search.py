@@ -20,6 +20,7 @@ from typing import Any
 import cpl
 from executive import (
     Designator,
+    Key,
     LocationDesignator,
     LookingHighLevelFailure,
     NavigationGoalInCollision,
@@ -27,6 +28,8 @@ from executive import (
     ObjectNowhereToBeFound,
     PerceptionLowLevelFailure,
     Pose,
+    Retry,
+    RuleDoc,
     SolutionCursor,
     a,
     an,
@@ -42,7 +45,7 @@ from ._common import (
     object_label,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object
+from ._designators import ROBOT, _check_places, _location, _object, default_of
 from .atomic import park_arms
 from .viewpoints import navigate_to_best_viewpoint
 
@@ -128,7 +131,47 @@ async def _look_from_higher(spot: Pose) -> None:
     await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
-@rule("action", "searching", keys=("object", "location", "viewpoint-reasoning"))
+@rule(
+    "action",
+    "searching",
+    doc=RuleDoc(
+        "Find the object at the location (plan search-for-object): for a sample of the "
+        "location, navigate to where it is visible, arms out of view (park), turn towards "
+        "it, detect. Returns the perceived object designator.",
+        keys=(
+            Key("object", "object designator", "what to find (type, name)", required=True),
+            Key(
+                "location",
+                "location designator or executive.Pose",
+                "where to look (e.g. on a surface); each retry takes its next sample",
+                required=True,
+            ),
+            Key(
+                "viewpoint-reasoning",
+                "bool",
+                "choose where to look from by imagining candidate viewpoints",
+                default="False: one visible-for sample",
+            ),
+        ),
+        raises=(ObjectNowhereToBeFound,),
+        retries=(
+            Retry(
+                default_of(search_for_object, "retries"),
+                SEARCH_FAILURES,
+                "the location's next sample",
+                counter="search",
+            ),
+            Retry(
+                1,
+                (PerceptionLowLevelFailure,),
+                f"raise the torso to {SEARCH_TORSO_HEIGHT} m, turn towards, detect again",
+                counter="search-torso",
+            ),
+        ),
+        performs=("navigating", "positioning-arm", "turning-towards", "detecting", "moving-torso"),
+        note="Each detecting makes its own 4 retries inside (same place, same view).",
+    ),
+)
 def _searching(d: Designator) -> Iterator[Any]:
     _check_places(d, "location")
     yield (

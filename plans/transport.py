@@ -20,11 +20,14 @@ from typing import Any
 import cpl
 from executive import (
     Designator,
+    EnvironmentManipulationImpossible,
+    Key,
     LocationDesignator,
     ObjectDesignator,
     ObjectNowhereToBeFound,
     ObjectUndeliverable,
     ObjectUnfetchable,
+    RuleDoc,
     a,
     an,
     perform,
@@ -154,14 +157,54 @@ async def _drop_and_return(obj: ObjectDesignator) -> None:
 @rule(
     "action",
     "transporting",
-    keys=(
-        "object",
-        "location",
-        "target",
-        "arm",
-        "projection-reasoning",
-        "projection-runs",
-        "viewpoint-reasoning",
+    doc=RuleDoc(
+        "Bring the object from location to target (plan transport): open its drawer if "
+        "location is (in ...), search, fetch and deliver (imagined first, when the "
+        "environment can imagine), close the drawer. Returns the delivered object "
+        "designator, or None when it was dropped at the sink.",
+        keys=(
+            Key("object", "object designator", "what to bring (type, name)", required=True),
+            Key(
+                "location",
+                "location designator",
+                "where to search for it; (in <drawer>): the drawer is opened first",
+                required=True,
+            ),
+            Key("target", "location designator", "where to deliver it", required=True),
+            Key("arm", "'left' | 'right'", "the arm to fetch with", default="right, then left"),
+            Key(
+                "projection-reasoning",
+                "bool",
+                "imagine fetch and deliver first, run the best",
+                default="True",
+            ),
+            Key("projection-runs", "int", "how many imagined runs", default="3"),
+            Key(
+                "viewpoint-reasoning",
+                "bool",
+                "the search imagines where to look from",
+                default="False",
+            ),
+        ),
+        raises=(
+            ObjectNowhereToBeFound,
+            ObjectUnfetchable,
+            ObjectUnreachableOnFloor,
+            EnvironmentManipulationImpossible,
+        ),
+        performs=(
+            "accessing",
+            "searching",
+            "fetching",
+            "delivering",
+            "sealing",
+            "navigating",
+            "placing",
+        ),
+        note="ObjectUndeliverable: the object is dropped at the sink (placed on the sink "
+        "counter) and None returned. Not found, or not fetchable: searched on the floor "
+        "around where it was believed, then fetched and delivered without projection. The "
+        "drawer is closed in a shielded finally (also when the transport is evaporated).",
     ),
 )
 def _transporting(d: Designator) -> Iterator[Any]:

@@ -40,7 +40,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from executive import DesignatorError, RuleSet, static_rules
+from executive import DesignatorError, Key, RuleDoc, RuleSet, static_rules
 from executive._designator import Designator
 from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable
@@ -71,6 +71,111 @@ _MIN_VALUE: Final = 0.10
 #: Clearance (m) between a ``for`` object placed by a spatial relation and its support's
 #: edge (see :func:`projection._costmaps.add_relation`).
 _SUPPORT_CLEARANCE: Final = 0.03
+
+
+_SURFACE = "object designator with urdf-name (a kitchen link), a link name, or an item name"
+_ITEM_OR_LOCATION = "object designator (an item) or location designator"
+
+#: The costmap generator's documentation: its keys are the keys it declares (the
+#: generated designator reference is built from it).
+COSTMAP_DOC: Final = RuleDoc(
+    "Costmap locations (CRAM's location-costmap-generator): an endless stream of samples "
+    "drawn from the product of the keys' costmaps, filtered by the validators; the "
+    "stream ends after 30 rejections in a row.",
+    keys=(
+        Key(
+            "reachable-for",
+            "robot name ('pr2')",
+            "base poses from which the robot reaches the target: 0.2-0.7 m away, facing "
+            "it (into an open drawer: from the reaching arm's shoulder)",
+            default="-",
+        ),
+        Key(
+            "visible-for",
+            "robot name ('pr2')",
+            "base poses from which the camera sees the target (ray casts), within 2 m, facing it",
+            default="-",
+        ),
+        Key("location", "location designator", "the target of reachable-for / visible-for"),
+        Key("object", "object designator or item name", "the target (its pose now)"),
+        Key("pose", "executive.Pose", "the target of reachable-for / visible-for"),
+        Key(
+            "arm",
+            "'left' | 'right'",
+            "with reachable-for: the arm that reaches (drawers)",
+            default="either",
+        ),
+        Key("on", _SURFACE, "on top of the surface (repeatable)", default="-"),
+        Key("in", _SURFACE, "inside the container (a drawer)", default="-"),
+        Key(
+            "side",
+            "'left' | 'right' | 'front' | 'back'",
+            "with on/in: that half of the surface, in map axes around its origin "
+            "(repeatable; front is -x)",
+            default="whole surface",
+        ),
+        Key(
+            "range",
+            "number (m)",
+            "with on/in: within this distance of the surface's origin",
+            default="-",
+        ),
+        Key(
+            "range-invert",
+            "number (m)",
+            "with on/in: farther than this from the surface's origin",
+            default="-",
+        ),
+        Key(
+            "for",
+            "object designator with a type, or a type name",
+            "the object to be put there: its size keeps it on the surface, and it must "
+            "not collide with other items",
+            default="a 0.1 m point",
+        ),
+        Key(
+            "context",
+            "'table-setting'",
+            "table-setting slots along the surface's edge (needs on, for, object-count)",
+            default="-",
+        ),
+        Key("object-count", "int >= 1", "with context: how many slots", default="-"),
+        Key(
+            "near",
+            _ITEM_OR_LOCATION,
+            "next to it, not touching (a ring and a Gaussian)",
+            default="-",
+        ),
+        Key("far-from", _ITEM_OR_LOCATION, "a ring farther away from it", default="-"),
+        Key(
+            "left-of",
+            _ITEM_OR_LOCATION,
+            "to its left, seen from the nearest edge of the surface",
+            default="-",
+        ),
+        Key(
+            "right-of",
+            _ITEM_OR_LOCATION,
+            "to its right, seen from the nearest edge of the surface",
+            default="-",
+        ),
+        Key(
+            "in-front-of",
+            _ITEM_OR_LOCATION,
+            "in front of it, seen from the nearest edge of the surface",
+            default="-",
+        ),
+        Key(
+            "behind",
+            _ITEM_OR_LOCATION,
+            "behind it, seen from the nearest edge of the surface",
+            default="-",
+        ),
+    ),
+    note="A location with none of the costmap keys is left to the other generators. "
+    "Costmap samples carry no orientation except reachable-for/visible-for (facing the "
+    "target); a placing target from a costmap keeps the held yaw (free-yaw).",
+)
 
 
 @dataclass
@@ -154,9 +259,7 @@ class LocationCostmaps:
         self.builds = 0
         self._plans: weakref.WeakKeyDictionary[Designator, _Plan] = weakref.WeakKeyDictionary()
         rules = (parent if parent is not None else static_rules).child("projection-locations")
-        rules.register_location_generator(
-            self.generate, 20, keys=(*COSTMAP_KEYS, *_MODIFIERS, "location", "object", "pose")
-        )
+        rules.register_location_generator(self.generate, 20, doc=COSTMAP_DOC)
         rules.register_location_validator(self.validate_on_floor, 1)
         rules.register_location_validator(self.validate_reachable, 5)
         rules.register_location_validator(self.validate_visible, 5)
