@@ -355,8 +355,9 @@ _DOCS: dict[str, RuleDoc] = {
             Key(
                 "collision-mode",
                 "None | 'allow-hand' | 'allow-all'",
-                "which contacts the arm planner allows",
-                default="None: none",
+                "CRAM's collision mode, passed to the process module (the projection "
+                "ignores it, as CRAM HEAD did)",
+                default="None",
             ),
         ),
         raises=(*_ARM_FAILURES, GripperClosedCompletely),

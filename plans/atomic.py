@@ -371,8 +371,8 @@ def _arm_motion_rule(action_type: str) -> Any:
 def _arm_motion_doc(action_type: str) -> RuleDoc:
     mode = _COLLISION_MODES[action_type]
     return RuleDoc(
-        f"Move the tool frame(s) through the waypoints (plan move-arms-in-sequence), "
-        f"collision mode {mode or 'None (no contact allowed)'}.",
+        f"Move the tool frame(s) through the waypoints (plan move-arms-in-sequence); "
+        f"the motions' collision-mode is {mode or 'None'} (the projection ignores it).",
         keys=(
             Key(
                 "left-poses",

@@ -175,12 +175,24 @@ def _container_rule(action_type: str) -> Any:
     return ground
 
 
+_CONTAINER_STEPS = {
+    "opening": (
+        "open-container: open the gripper while reaching the handle, take it, close the "
+        "gripper, pull by distance, ContainerOpened, release, retract",
+        ("setting-gripper", "reaching", "grasping", "closing-gripper", "pulling", "releasing"),
+    ),
+    "closing": (
+        "close-container: reach the handle, touch it, push by distance, ContainerClosed, "
+        "retract (no grip, as in CRAM)",
+        ("reaching", "grasping", "pushing"),
+    ),
+}
+
+
 def _container_doc(verb: str) -> RuleDoc:
-    motion = "pull" if verb == "opening" else "push"
+    steps, performs = _CONTAINER_STEPS[verb]
     return RuleDoc(
-        f"With an object: {verb} a drawer from where the robot stands (plan "
-        f"{'open' if verb == 'opening' else 'close'}-container): reach the handle, "
-        f"take it, {motion} it by distance, ContainerOpened/Closed, let go, retract.",
+        f"With an object: {verb} a drawer from where the robot stands (plan {steps}).",
         keys=(
             Key(
                 "object",
@@ -198,7 +210,7 @@ def _container_doc(verb: str) -> RuleDoc:
         ),
         raises=(ManipulationLowLevelFailure,),
         ignores=(ManipulationLowLevelFailure, GripperLowLevelFailure),
-        performs=("setting-gripper", "reaching", "grasping", f"{motion}ing", "retracting"),
+        performs=(*performs, "retracting"),
         note="Reach and grasp failures propagate; the rest is ignored. Usually performed "
         "through accessing / sealing, which navigate and check it first.",
     )

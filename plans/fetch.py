@@ -335,7 +335,14 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
                 probes=True,
             ),
         ),
-        performs=("navigating", "turning-towards", "detecting", "picking-up", "going"),
+        performs=(
+            "navigating",
+            "turning-towards",
+            "detecting",
+            "picking-up",
+            "going",
+            "positioning-arm",
+        ),
         note="Designator errors become ObjectUnfetchable. An object believed on the floor "
         "(below 0.3 m) is fetched from base poses around it; out of reach there: "
         "ObjectUnreachableOnFloor (logged, counted).",

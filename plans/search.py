@@ -136,8 +136,8 @@ async def _look_from_higher(spot: Pose) -> None:
     "searching",
     doc=RuleDoc(
         "Find the object at the location (plan search-for-object): for a sample of the "
-        "location, navigate to where it is visible, arms out of view (park), turn towards "
-        "it, detect. Returns the perceived object designator.",
+        "location, navigate to where it is visible, park the arms out of view (if the hands "
+        "are empty), turn towards it, detect. Returns the perceived object designator.",
         keys=(
             Key("object", "object designator", "what to find (type, name)", required=True),
             Key(
