@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from typing import Any
+from types import MappingProxyType
+from typing import Any, Final
 
 from ._designator import Designator
 from ._pose import Pose
@@ -282,99 +283,101 @@ def _joints_alias(side: str) -> Key:
     )
 
 
-_DOCS: dict[str, RuleDoc] = {
-    "going": RuleDoc(
-        "Drive the base to a pose (map); command move-base.",
-        keys=(
-            Key("pose", _POSE, "the base goal (z = 0)", default="target"),
-            Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
-            Key("speed", "number (m/s)", "speed limit", default="the controller's"),
-        ),
-        raises=(NavigationPoseUnreachable, NavigationGoalNotReached),
-        note="One of pose or target is required.",
-    ),
-    "moving-torso": RuleDoc(
-        "Set the torso height; command move-torso.",
-        keys=(Key("joint-angle", "number (m)", "torso lift joint position", required=True),),
-        raises=(TorsoGoalNotReached,),
-    ),
-    "looking": RuleDoc(
-        "Point the head (pan/tilt); command move-head.",
-        keys=(
-            Key("pose", _POSE, "the point to look at", default="target"),
-            Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
-            Key("object", "object designator (perceived)", "look at its pose", default="-"),
-            Key("frame", "frame name", "look at the frame's origin", default="-"),
-            Key("direction", "'forward'", "look straight ahead", default="-"),
-            Key("joint-states", "(pan, tilt) (rad)", "set the head joints", default="-"),
-        ),
-        raises=(PtuGoalNotReached,),
-        note="Exactly one of the keys is used, in the order listed.",
-    ),
-    "detecting": RuleDoc(
-        "Perceive the object from where the robot stands, without moving; command detect. "
-        "Returns the perceived object designator(s).",
-        keys=(Key("object", "object designator", "what to find (type, name)", required=True),),
-        raises=(PerceptionObjectNotFound,),
-    ),
-    "opening-gripper": RuleDoc(
-        "Open the gripper fully; command move-gripper-joint (open).",
-        keys=(_GRIPPER,),
-        raises=_GRIPPER_FAILURES,
-    ),
-    "opening": RuleDoc(
-        "CRAM HEAD's name of opening-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
-    ),
-    "closing-gripper": RuleDoc(
-        "Close the gripper fully; command move-gripper-joint (close).",
-        keys=(_GRIPPER,),
-        raises=_GRIPPER_FAILURES,
-    ),
-    "closing": RuleDoc(
-        "CRAM HEAD's name of closing-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
-    ),
-    "gripping": RuleDoc(
-        "Close the gripper on an object; fails if it closes on nothing; command "
-        "move-gripper-joint (grip).",
-        keys=(_GRIPPER, Key("effort", "number (Nm)", "grip effort", default="the driver's")),
-        raises=_GRIPPER_FAILURES,
-    ),
-    "moving-gripper-joint": RuleDoc(
-        "Set the gripper opening; command move-gripper-joint (angle).",
-        keys=(_GRIPPER, Key("joint-angle", "number (m)", "the opening", required=True)),
-        raises=_GRIPPER_FAILURES,
-    ),
-    "moving-tcp": RuleDoc(
-        "Move the tool frame(s) to poses (IK); command move-tcp. A held object that falls "
-        "out on the way is a gripper failure.",
-        keys=(
-            _tcp_key("left"),
-            _tcp_key("right"),
-            _tcp_alias("left"),
-            _tcp_alias("right"),
-            Key(
-                "collision-mode",
-                "None | 'allow-hand' | 'allow-all'",
-                "CRAM's collision mode, passed to the process module (the projection "
-                "ignores it, as CRAM HEAD did)",
-                default="None",
+_DOCS: Final = MappingProxyType(
+    {
+        "going": RuleDoc(
+            "Drive the base to a pose (map); command move-base.",
+            keys=(
+                Key("pose", _POSE, "the base goal (z = 0)", default="target"),
+                Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
+                Key("speed", "number (m/s)", "speed limit", default="the controller's"),
             ),
+            raises=(NavigationPoseUnreachable, NavigationGoalNotReached),
+            note="One of pose or target is required.",
         ),
-        raises=(*_ARM_FAILURES, GripperClosedCompletely),
-        note="At least one of left-pose and right-pose is required.",
-    ),
-    "moving-arm-joints": RuleDoc(
-        "Set the arm joints; command move-joints.",
-        keys=(
-            _joints_key("left"),
-            _joints_key("right"),
-            _joints_alias("left"),
-            _joints_alias("right"),
+        "moving-torso": RuleDoc(
+            "Set the torso height; command move-torso.",
+            keys=(Key("joint-angle", "number (m)", "torso lift joint position", required=True),),
+            raises=(TorsoGoalNotReached,),
         ),
-        raises=(*_ARM_FAILURES, GripperClosedCompletely),
-        note="At least one arm's joints are required.",
-    ),
-}
+        "looking": RuleDoc(
+            "Point the head (pan/tilt); command move-head.",
+            keys=(
+                Key("pose", _POSE, "the point to look at", default="target"),
+                Key("target", _POSE, "CRAM HEAD's name of pose", default="-"),
+                Key("object", "object designator (perceived)", "look at its pose", default="-"),
+                Key("frame", "frame name", "look at the frame's origin", default="-"),
+                Key("direction", "'forward'", "look straight ahead", default="-"),
+                Key("joint-states", "(pan, tilt) (rad)", "set the head joints", default="-"),
+            ),
+            raises=(PtuGoalNotReached,),
+            note="Exactly one of the keys is used, in the order listed.",
+        ),
+        "detecting": RuleDoc(
+            "Perceive the object from where the robot stands, without moving; command detect. "
+            "Returns the perceived object designator(s).",
+            keys=(Key("object", "object designator", "what to find (type, name)", required=True),),
+            raises=(PerceptionObjectNotFound,),
+        ),
+        "opening-gripper": RuleDoc(
+            "Open the gripper fully; command move-gripper-joint (open).",
+            keys=(_GRIPPER,),
+            raises=_GRIPPER_FAILURES,
+        ),
+        "opening": RuleDoc(
+            "CRAM HEAD's name of opening-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
+        ),
+        "closing-gripper": RuleDoc(
+            "Close the gripper fully; command move-gripper-joint (close).",
+            keys=(_GRIPPER,),
+            raises=_GRIPPER_FAILURES,
+        ),
+        "closing": RuleDoc(
+            "CRAM HEAD's name of closing-gripper.", keys=(_GRIPPER,), raises=_GRIPPER_FAILURES
+        ),
+        "gripping": RuleDoc(
+            "Close the gripper on an object; fails if it closes on nothing; command "
+            "move-gripper-joint (grip).",
+            keys=(_GRIPPER, Key("effort", "number (Nm)", "grip effort", default="the driver's")),
+            raises=_GRIPPER_FAILURES,
+        ),
+        "moving-gripper-joint": RuleDoc(
+            "Set the gripper opening; command move-gripper-joint (angle).",
+            keys=(_GRIPPER, Key("joint-angle", "number (m)", "the opening", required=True)),
+            raises=_GRIPPER_FAILURES,
+        ),
+        "moving-tcp": RuleDoc(
+            "Move the tool frame(s) to poses (IK); command move-tcp. A held object that falls "
+            "out on the way is a gripper failure.",
+            keys=(
+                _tcp_key("left"),
+                _tcp_key("right"),
+                _tcp_alias("left"),
+                _tcp_alias("right"),
+                Key(
+                    "collision-mode",
+                    "None | 'allow-hand' | 'allow-all'",
+                    "CRAM's collision mode, passed to the process module (the projection "
+                    "ignores it, as CRAM HEAD did)",
+                    default="None",
+                ),
+            ),
+            raises=(*_ARM_FAILURES, GripperClosedCompletely),
+            note="At least one of left-pose and right-pose is required.",
+        ),
+        "moving-arm-joints": RuleDoc(
+            "Set the arm joints; command move-joints.",
+            keys=(
+                _joints_key("left"),
+                _joints_key("right"),
+                _joints_alias("left"),
+                _joints_alias("right"),
+            ),
+            raises=(*_ARM_FAILURES, GripperClosedCompletely),
+            note="At least one arm's joints are required.",
+        ),
+    }
+)
 
 for _type, _fn in (
     ("going", going),

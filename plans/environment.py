@@ -12,7 +12,8 @@ moved by the distance (pulled or pushed), and a retreat 0.10 m further.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from typing import Any
+from types import MappingProxyType
+from typing import Any, Final
 
 import numpy as np
 
@@ -175,18 +176,20 @@ def _container_rule(action_type: str) -> Any:
     return ground
 
 
-_CONTAINER_STEPS = {
-    "opening": (
-        "open-container: open the gripper while reaching the handle, take it, close the "
-        "gripper, pull by distance, ContainerOpened, release, retract",
-        ("setting-gripper", "reaching", "grasping", "closing-gripper", "pulling", "releasing"),
-    ),
-    "closing": (
-        "close-container: reach the handle, touch it, push by distance, ContainerClosed, "
-        "retract (no grip, as in CRAM)",
-        ("reaching", "grasping", "pushing"),
-    ),
-}
+_CONTAINER_STEPS: Final = MappingProxyType(
+    {
+        "opening": (
+            "open-container: open the gripper while reaching the handle, take it, close the "
+            "gripper, pull by distance, ContainerOpened, release, retract",
+            ("setting-gripper", "reaching", "grasping", "closing-gripper", "pulling", "releasing"),
+        ),
+        "closing": (
+            "close-container: reach the handle, touch it, push by distance, ContainerClosed, "
+            "retract (no grip, as in CRAM)",
+            ("reaching", "grasping", "pushing"),
+        ),
+    }
+)
 
 
 def _container_doc(verb: str) -> RuleDoc:
