@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import re
 import sys
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -96,6 +97,11 @@ def undocumented(rules: RuleSet) -> list[str]:
 # ---------------------------------------------------------------------------- rendering
 def _where(fn: Any) -> str:
     return f"{fn.__module__}.{getattr(fn, '__qualname__', repr(fn))}"
+
+
+def _markdown(docstring: str) -> str:
+    """A docstring's reST roles and literals as Markdown code."""
+    return re.sub(r":[a-z]+:`~?([^`]+)`", r"`\1`", docstring).replace("``", "`")
 
 
 def _cell(text: str) -> str:
@@ -182,7 +188,7 @@ def _locations(rules: RuleSet) -> list[str]:
         text = inspect.getdoc(v.fn)
         if not text:
             raise UndocumentedRule(f"location validator {_where(v.fn)} has no docstring")
-        summary = " ".join(text.split("\n\n")[0].split())
+        summary = _markdown(" ".join(text.split("\n\n")[0].split()))
         lines.append(f"| {v.priority:g} | `{v.name}` | {_cell(summary)} |")
     return [*lines, ""]
 

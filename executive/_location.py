@@ -173,6 +173,7 @@ builtin_rules.register_location_generator(
     10,
     doc=RuleDoc(
         "CRAM's Prolog groundings: the given poses, in the order of the keys.",
+        raises=(DesignatorError,),
         keys=(
             Key("pose", "executive.Pose", "this pose (repeat the key for several)", default="-"),
             Key(

@@ -156,6 +156,7 @@ register_location_generator(
     10,
     doc=RuleDoc(
         "An imagined run's region of poses, then (optionally) the plan's own designator.",
+        raises=(DesignatorError,),
         keys=(
             Key("among", "tuple of executive.Pose", "exactly these poses, in order", default="-"),
             Key(

@@ -172,9 +172,13 @@ COSTMAP_DOC: Final = RuleDoc(
             default="-",
         ),
     ),
-    note="A location with none of the costmap keys is left to the other generators. "
+    raises=(DesignatorError,),
+    note="DesignatorError on reference(), naming the designator and the reason: an unknown "
+    "surface or item (with close matches), a bad value, or an empty costmap (with the "
+    "factor that emptied it). A location with none of the costmap keys is left to the "
+    "other generators. "
     "Costmap samples carry no orientation except reachable-for/visible-for (facing the "
-    "target); a placing target from a costmap keeps the held yaw (free-yaw).",
+    "target); delivering to a costmap target keeps the held yaw (free-yaw).",
 )
 
 
