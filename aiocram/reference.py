@@ -240,7 +240,7 @@ def replace_section(text: str, reference: str, *, path: str = "the file") -> str
 def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "reference",
-        help="print the designator reference (actions, motions, locations)",
+        help="print the designator reference",
         description="Print the reference of every action, motion and location designator of "
         "the projected robot, generated from the registered rules; or update / check the "
         "generated section of a Markdown file.",
