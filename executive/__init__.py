@@ -31,11 +31,13 @@ from ._perform import perform
 from ._pose import Pose, Transform, yaw_quaternion
 from ._process_module import PMStatus, ProcessModule, pm_execute
 from ._queries import action_of, newest_effective, performed, previous_performed
+from ._resources import Resource, ResourceKind
 from ._rules import (
     RuleSet,
     builtin_rules,
     register_location_generator,
     register_location_validator,
+    register_resources,
     register_rule,
     rule,
     static_rules,
@@ -83,6 +85,8 @@ __all__ = [
     "PMStatus",
     "Pose",
     "ProcessModule",
+    "Resource",
+    "ResourceKind",
     "RuleSet",
     "SolutionCursor",
     "Transform",
@@ -113,6 +117,7 @@ __all__ = [
     "previous_performed",
     "register_location_generator",
     "register_location_validator",
+    "register_resources",
     "register_rule",
     "retry_scope",
     "retry_with_designator_solutions",

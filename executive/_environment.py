@@ -19,6 +19,7 @@ from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
+from ._resources import Resource, ResourceLedger
 from ._rules import RuleSet, static_rules
 from ._world import ProjectionWorld
 from .failures import NoWorldModel
@@ -78,6 +79,7 @@ class Environment:
 
     __slots__ = (
         "_frozen",
+        "_ledger",
         "_owns_rules",
         "_subscribers",
         "_world",
@@ -111,6 +113,9 @@ class Environment:
             raise TypeError(f"rules must be an executive.RuleSet, got {rules!r}")
         self._owns_rules = rules is not None and not self.rules.frozen
         self._subscribers = _Subscribers()
+        # who holds which robot part (executive._resources); shared with the environments
+        # derived from this one, which drive the same robot
+        self._ledger = ResourceLedger()
         self.parent: Environment | None = None
         self._frozen = False
 
@@ -150,8 +155,20 @@ class Environment:
         )
         env._owns_rules = False if rules is None else env._owns_rules
         env._subscribers = self._subscribers
+        env._ledger = self._ledger
         env.parent = self
         return env
+
+    @property
+    def resources(self) -> frozenset[Resource]:
+        """The robot's parts: those its process modules drive
+        (:attr:`executive.ProcessModule.resources`); empty when none says (then any part
+        a goal names is accepted)."""
+        parts: frozenset[Resource] = frozenset()
+        for pm in self.process_modules:
+            if pm.resources:
+                parts = parts.union(pm.resources)
+        return parts
 
     def is_within(self, other: Environment) -> bool:
         """True if this environment is ``other`` or was derived from it."""

@@ -25,6 +25,11 @@ moving-tcp                 left-pose?, right-pose? (>= 1),       move-tcp {left,
 moving-arm-joints          left-joint-states?,                   move-joints {left, right}
                            right-joint-states? (>= 1)
 =========================  ====================================  =============================
+
+The resources each command uses while it runs (:mod:`executive._resources`): ``move-base``
+the base, ``move-torso`` the torso, ``move-head`` and ``detect`` the head (perception reads
+the camera where the head points), ``move-gripper-joint`` the grippers it names,
+``move-tcp`` and ``move-joints`` the arms that have a goal.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from typing import Any
 
 from ._designator import Designator
 from ._pose import Pose
+from ._resources import Resource
 from ._rules import WILDCARD, builtin_rules
 from ._solutions import MotionCommand, ObjectData
 from .failures import DesignatorError
@@ -267,3 +273,27 @@ for _type, _fn, _keys in (
     # keys declared: a motion with a key no rule reads fails to resolve, listing them
     builtin_rules.register("motion", _type, _fn, keys=_keys)
 builtin_rules.register("object", WILDCARD, perceived_object, priority=1000)
+
+
+def _grippers(args: Any) -> Iterator[Resource]:
+    value = args["gripper"]
+    for g in (value,) if isinstance(value, str) else value:
+        yield Resource.gripper(g)
+
+
+def _arms(args: Any) -> Iterator[Resource]:
+    for side in _ARMS:
+        if args.get(side) is not None:
+            yield Resource.arm(side)
+
+
+for _command, _uses in (
+    ("move-base", lambda _args: (Resource.base(),)),
+    ("move-torso", lambda _args: (Resource.torso(),)),
+    ("move-head", lambda _args: (Resource.head(),)),
+    ("detect", lambda _args: (Resource.head(),)),
+    ("move-gripper-joint", _grippers),
+    ("move-tcp", _arms),
+    ("move-joints", _arms),
+):
+    builtin_rules.register_resources(_command, _uses)

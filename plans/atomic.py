@@ -23,8 +23,15 @@ closing with a gripper
 setting-gripper               set-gripper-to-position     gripper low-level ignored
 ============================  ==========================  =================================
 
-Every plan is evaporation-safe: it holds no resources, and ``going`` emits its
+Every plan is evaporation-safe: it holds nothing to clean up, and ``going`` emits its
 ``RobotStateChanged`` in a ``finally`` (CRAM's ``unwind-protect``).
+
+The robot parts each action claims for its duration (:func:`executive.register_resources`;
+what a concurrent goal on a claimed part does: :mod:`executive._resources`): ``going``
+the base, ``looking`` the head, ``detecting`` the head shared (perception coexists with
+other perception and motions, not with a ``looking`` outside its subtree),
+``moving-torso`` the torso, the arm actions the arms that have waypoints or a
+configuration, the gripper actions the grippers they name.
 """
 
 from __future__ import annotations
@@ -46,6 +53,7 @@ from executive import (
     PerceptionLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Resource,
     a,
     an,
     current_environment,
@@ -53,11 +61,12 @@ from executive import (
     equate,
     knowledge,
     perform,
+    register_resources,
     rule,
 )
 from executive.events import ObjectDetached, ObjectPerceived, RobotStateChanged
 
-from ._common import CountedRetries, as_location, perform_ignoring, wrist_link
+from ._common import CountedRetries, as_location, grippers_named, perform_ignoring, wrist_link
 
 _log = logging.getLogger(__name__)
 
@@ -126,6 +135,9 @@ def _going(d: Designator) -> Iterator[Any]:
     yield go_to_target, {"target": target}
 
 
+register_resources(go_to_target, lambda _args: (Resource.base(),))
+
+
 # ------------------------------------------------------------------------------ looking
 @cpl.plan(name="look-at")
 async def look_at(motion: Designator) -> None:
@@ -155,6 +167,9 @@ def _looking(d: Designator) -> Iterator[Any]:
     if not props:
         raise DesignatorError(f"{d.short()} needs target, pose, object, frame or direction", d)
     yield look_at, {"motion": a.motion(type="looking", **props)}
+
+
+register_resources(look_at, lambda _args: (Resource.head(),))
 
 
 # ---------------------------------------------------------------------------- detecting
@@ -201,6 +216,9 @@ def _detecting(d: Designator) -> Iterator[Any]:
     yield perceive, {"object_designator": obj}
 
 
+register_resources(perceive, lambda _args: (Resource.head(),), shared=True)
+
+
 # -------------------------------------------------------------------------------- torso
 @cpl.plan(name="move-torso")
 async def move_torso(joint_angle: float) -> None:
@@ -214,6 +232,9 @@ def _moving_torso(d: Designator) -> Iterator[Any]:
     if not isinstance(angle, (int, float)):
         raise DesignatorError(f"{d.short()} needs a joint-angle (a number)", d)
     yield move_torso, {"joint_angle": float(angle)}
+
+
+register_resources(move_torso, lambda _args: (Resource.torso(),))
 
 
 # ----------------------------------------------------------------------------- arm moves
@@ -279,6 +300,10 @@ def _arm_motion_rule(action_type: str) -> Any:
 
 for _action_type in _COLLISION_MODES:
     rule("action", _action_type, keys=("left-poses", "right-poses"))(_arm_motion_rule(_action_type))
+register_resources(
+    move_arms_in_sequence,
+    lambda args: tuple(Resource.arm(side) for side in ("left", "right") if args[f"{side}_poses"]),
+)
 
 
 @cpl.plan(name="position-arms")
@@ -336,6 +361,12 @@ def _positioning_arm(d: Designator) -> Iterator[Any]:
             d,
         )
     yield position_arms, {"left": left, "right": right}
+
+
+register_resources(
+    position_arms,
+    lambda args: tuple(Resource.arm(side) for side in ("left", "right") if args[side]),
+)
 
 
 async def park_arms(configuration: str = "carry") -> None:
@@ -423,3 +454,7 @@ def _setting_gripper(d: Designator) -> Iterator[Any]:
             d,
         )
     yield set_gripper_to_position, {"gripper": _gripper(d), "position": float(position)}
+
+
+for _gripper_plan in (grip, release, open_or_close_gripper, set_gripper_to_position):
+    register_resources(_gripper_plan, grippers_named)

@@ -13,6 +13,9 @@ parked next to a counter; ``fetch`` and ``deliver`` use it. Deliberate differenc
 CRAM: ``go-without-collisions`` does not ignore the going's failures (it drives again,
 then raises :class:`BaseStoppedShort`), and a ptu failure of the look forward while
 turning towards is ignored.
+
+``navigating`` claims the base for its duration, ``turning-towards`` the head and the base
+(it may turn the base) (:func:`executive.register_resources`).
 """
 
 from __future__ import annotations
@@ -34,11 +37,13 @@ from executive import (
     NavigationLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Resource,
     a,
     an,
     current_environment,
     knowledge,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
@@ -133,6 +138,9 @@ def _navigating(d: Designator) -> Iterator[Any]:
     yield go_without_collisions, {"location": _location(d, "location")}
 
 
+register_resources(go_without_collisions, lambda _args: (Resource.base(),))
+
+
 # ----------------------------------------------------------------------- turning towards
 def _turned_base(target: Pose) -> Pose:
     """The robot's pose rotated in place to face ``target``."""
@@ -179,6 +187,9 @@ async def _turn_base_towards(target: LocationDesignator) -> None:
 @rule("action", "turning-towards", keys=("target",))
 def _turning_towards(d: Designator) -> Iterator[Any]:
     yield turn_towards, {"target": _location(d, "target")}
+
+
+register_resources(turn_towards, lambda _args: (Resource.head(), Resource.base()))
 
 
 # --------------------------------------------------------------------------- backing off
