@@ -81,6 +81,7 @@ class Environment:
         "_frozen",
         "_ledger",
         "_owns_rules",
+        "_parts",
         "_subscribers",
         "_world",
         "imagination",
@@ -116,6 +117,9 @@ class Environment:
         # who holds which robot part (executive._resources); shared with the environments
         # derived from this one, which drive the same robot
         self._ledger = ResourceLedger()
+        # the robot's parts (see resources), computed on first use: the process modules
+        # and the parts they declare do not change once the environment is built
+        self._parts: frozenset[Resource] | None = None
         self.parent: Environment | None = None
         self._frozen = False
 
@@ -162,12 +166,12 @@ class Environment:
     @property
     def resources(self) -> frozenset[Resource]:
         """The robot's parts: those its process modules drive
-        (:attr:`executive.ProcessModule.resources`); empty when none says (then any part
-        a goal names is accepted)."""
-        parts: frozenset[Resource] = frozenset()
-        for pm in self.process_modules:
-            if pm.resources:
-                parts = parts.union(pm.resources)
+        (:attr:`executive.ProcessModule.resources`). A goal that needs a part of a kind
+        listed here that is not listed fails to resolve; a kind no module lists is
+        unknown, and any part of it is accepted."""
+        parts = self._parts
+        if parts is None:
+            parts = self._parts = frozenset().union(*(pm.resources for pm in self.process_modules))
         return parts
 
     def is_within(self, other: Environment) -> bool:

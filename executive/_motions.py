@@ -275,23 +275,27 @@ for _type, _fn, _keys in (
 builtin_rules.register("object", WILDCARD, perceived_object, priority=1000)
 
 
-def _grippers(args: Any) -> Iterator[Resource]:
+_BASE = (Resource.base(),)
+_TORSO = (Resource.torso(),)
+_HEAD = (Resource.head(),)
+_ARM = {side: Resource.arm(side) for side in _ARMS}
+_GRIPPER = {side: Resource.gripper(side) for side in _ARMS}
+
+
+def _grippers(args: Any) -> tuple[Resource, ...]:
     value = args["gripper"]
-    for g in (value,) if isinstance(value, str) else value:
-        yield Resource.gripper(g)
+    return tuple(_GRIPPER[g] for g in ((value,) if isinstance(value, str) else value))
 
 
-def _arms(args: Any) -> Iterator[Resource]:
-    for side in _ARMS:
-        if args.get(side) is not None:
-            yield Resource.arm(side)
+def _arms(args: Any) -> tuple[Resource, ...]:
+    return tuple(_ARM[side] for side in _ARMS if args.get(side) is not None)
 
 
 for _command, _uses in (
-    ("move-base", lambda _args: (Resource.base(),)),
-    ("move-torso", lambda _args: (Resource.torso(),)),
-    ("move-head", lambda _args: (Resource.head(),)),
-    ("detect", lambda _args: (Resource.head(),)),
+    ("move-base", lambda _args: _BASE),
+    ("move-torso", lambda _args: _TORSO),
+    ("move-head", lambda _args: _HEAD),
+    ("detect", lambda _args: _HEAD),
     ("move-gripper-joint", _grippers),
     ("move-tcp", _arms),
     ("move-joints", _arms),

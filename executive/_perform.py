@@ -93,40 +93,42 @@ async def _perform_motion(motion: MotionDesignator) -> Any:
             motion=motion,
         )
     command, arguments = motion.reference()
-    declared = env.rules.resources_for(command)
-    if declared is None:
-        return await _try_candidates(motion, candidates, env)
-    task = cpl.current_task()
-    resources = resources_of(declared[0], arguments, motion)
-    if task is None or not resources:
-        return await _try_candidates(motion, candidates, env)
-    parts = env.resources
-    check_parts(resources, parts, motion)
-    ledger = env._ledger
-    uses = ledger.acquire(
-        resources, task, action=None, exclusive=False, what=motion.short(), parts=parts
-    )
-    try:
-        return await _try_candidates(motion, candidates, env)
-    finally:
-        ledger.release(uses)
-
-
-async def _try_candidates(motion: MotionDesignator, candidates: list[Any], env: Environment) -> Any:
+    uses = _motion_uses(motion, command, arguments, env)
     first: BaseException | None = None
-    for pm in candidates:
-        try:
-            return await pm._submit(motion, env)
-        except cpl.PlanFailure as failure:
-            if first is None:
-                first = _unwrap(failure)
-    assert first is not None
     try:
+        for pm in candidates:
+            try:
+                return await pm._submit(motion, env)
+            except cpl.PlanFailure as failure:
+                if first is None:
+                    first = _unwrap(failure)
+        assert first is not None
         raise first
     finally:
         # this frame is in ``first``'s traceback: drop the local, or failure -> traceback
         # -> frame -> failure is a reference cycle only the cyclic collector frees
         first = None
+        if uses is not None:
+            env._ledger.release(uses)
+
+
+def _motion_uses(
+    motion: MotionDesignator, command: str, arguments: Any, env: Environment
+) -> list[Any] | None:
+    """The resources a motion uses while it runs (shared with other motions), acquired;
+    ``None`` when its command registered none."""
+    declared = env.rules.resources_for(command)
+    if declared is None:
+        return None
+    task = cpl.current_task()
+    resources = resources_of(declared[0], arguments, motion)
+    if task is None or not resources:
+        return None
+    parts = env.resources
+    check_parts(resources, parts, motion)
+    return env._ledger.acquire(
+        resources, task, motion, is_action=False, exclusive=False, parts=parts
+    )
 
 
 async def _perform_action(action: ActionDesignator) -> Any:
@@ -145,7 +147,7 @@ async def _perform_action(action: ActionDesignator) -> Any:
     check_parts(resources, parts, action)
     ledger = env._ledger
     uses = ledger.acquire(
-        resources, task, action=action, exclusive=not shared, what=action.short(), parts=parts
+        resources, task, action, is_action=True, exclusive=not shared, parts=parts
     )
     try:
         await _let_siblings_claim()

@@ -22,9 +22,12 @@ Two goals on one part:
   claim (nested claims: the innermost holder decides).
 - **A second action, or a motion, from a task outside the claiming action's subtree
   fails at once** with :class:`executive.ResourceConflict`, naming both goals, the part
-  and what to do (sequence them, or use another part that is free), before it resolves
-  its plan or reaches a process module: nothing moves for it. In a ``par``, that failure
-  evaporates the sibling that holds the claim, as any failure does.
+  and what to do (sequence them, or use another part that is free), before its plan
+  starts or it reaches a process module: nothing moves for it. In a ``par``, that
+  failure evaporates the sibling that holds the claim, as any failure does; an action
+  yields to the loop twice between its claim and its plan (``perform``), so siblings
+  that one form started claim before any of them moves, and the form evaporates the
+  holder before it moved either.
 - **Motions outside any claiming action share the part**: several at once on one process
   module wait their turn, one goal at a time in FIFO order (CRAM's ``pm-execute``). An
   action claiming a part that such a motion is using fails (the motion does not wait for
@@ -48,7 +51,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from .failures import DesignatorError, ResourceConflict
@@ -77,15 +80,17 @@ _SINGLE: frozenset[ResourceKind] = frozenset(
 )
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Resource:
     """One part of the robot: ``Resource.base()``, ``Resource.arm("left")``,
-    ``Resource.gripper("right")``. Compared by value."""
+    ``Resource.gripper("right")``. Compared and hashed by value (kind and part)."""
 
     kind: ResourceKind
     # Invariant: None exactly for the kinds a robot has one of (base, torso, head); a
     # non-empty name (the robot's own, e.g. "left") for arms and grippers.
     part: str | None = None
+    # hash((kind, part)), computed once: resources are looked up on perform's hot path
+    _hash: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.kind, ResourceKind):
@@ -104,6 +109,16 @@ class Resource:
                 f"a {self.kind.value} resource names its part: Resource.{self.kind.value}"
                 f"('left'), got {self.part!r}"
             )
+        object.__setattr__(self, "_hash", hash((self.kind.value, self.part)))
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not Resource:
+            return NotImplemented
+        assert isinstance(other, Resource)
+        return self.kind is other.kind and self.part == other.part
+
+    def __hash__(self) -> int:
+        return self._hash
 
     @classmethod
     def base(cls) -> Resource:
@@ -136,45 +151,60 @@ class Resource:
 class _Use:
     """One goal's hold on one resource, from ``acquire`` to ``release``."""
 
-    __slots__ = ("action", "exclusive", "owner", "resource", "what")
+    __slots__ = ("exclusive", "goal", "is_action", "owner", "resource")
 
     def __init__(
         self,
         resource: Resource,
         owner: cpl.Task,
-        action: Designator | None,
+        goal: Designator,
+        is_action: bool,
         exclusive: bool,
-        what: str,
     ) -> None:
         self.resource = resource
         # the task that performs the goal: for an action, the parent of the action's task
-        # (the hold's scope is that child, found by its "designator" annotation); for a
-        # motion, the task whose goal it is
+        # (the hold's scope is that child, found by its "designator" annotation, the goal);
+        # for a motion, the task whose goal it is
         self.owner = owner
-        self.action = action
+        self.goal = goal
+        self.is_action = is_action
         self.exclusive = exclusive
-        self.what = what
 
     def contains(self, task: cpl.Task) -> bool:
         """Whether ``task`` runs inside this hold's scope (so may use the resource)."""
         node: Any = task
-        if self.action is None:
+        owner = self.owner
+        if not self.is_action:
             while node is not None:
-                if node is self.owner:
+                if node is owner:
                     return True
                 node = node.parent
             return False
-        owner, action = self.owner, self.action
+        goal = self.goal
         while node is not None:
             parent = node.parent
             if parent is owner:
                 notes = node.annotations
-                return notes is not None and notes.get("designator") is action
+                return notes is not None and notes.get("designator") is goal
             node = parent
         return False
 
+    @property
+    def what(self) -> str:
+        return label(self.goal)
+
     def describe(self) -> str:
-        return f"{self.what}, performed by {_path(self.owner)}"
+        return f"{self.what} (performed by {_path(self.owner)})"
+
+
+def label(designator: Designator) -> str:
+    """A goal in a conflict's message: its kind and first properties, shortened
+    (``action (type picking-up) (object <object (type cup) ...>) (arm left)``)."""
+    from ._designator import _fmt_short  # here: _designator imports the environment
+
+    props = designator.properties
+    shown = " ".join(f"({k} {_fmt_short(v)})" for k, v in props[:4])
+    return f"{designator.kind} {shown}{' ...' if len(props) > 4 else ''}"
 
 
 def _path(task: cpl.Task) -> str:
@@ -192,51 +222,54 @@ class ResourceLedger:
         # released, in acquisition order.
         self._uses: dict[Resource, list[_Use]] = {}
 
-    def holders(self, resource: Resource) -> tuple[str, ...]:
-        """What holds ``resource`` now (descriptions, oldest first)."""
-        return tuple(u.describe() for u in self._uses.get(resource, ()))
-
     def acquire(
         self,
-        resources: Iterable[Resource],
+        resources: tuple[Resource, ...],
         task: cpl.Task,
+        goal: Designator,
         *,
-        action: Designator | None,
+        is_action: bool,
         exclusive: bool,
-        what: str,
         parts: frozenset[Resource] = frozenset(),
     ) -> list[_Use]:
-        """Hold every one of ``resources`` for the goal ``what`` performed by ``task``, or
-        none: :class:`executive.ResourceConflict` for the first one held outside the
-        goal's reach (nothing is acquired then). ``parts``: the robot's parts (for the
-        hint naming a free one)."""
-        wanted = tuple(dict.fromkeys(resources))
-        for resource in wanted:
-            for use in self._uses.get(resource, ()):
-                if (exclusive or use.exclusive) and not use.contains(task):
-                    raise _conflict(resource, use, what, task, parts, self)
-        acquired = [_Use(r, task, action, exclusive, what) for r in wanted]
-        for use in acquired:
-            self._uses.setdefault(use.resource, []).append(use)
+        """Hold every one of ``resources`` for ``goal`` (an action or a motion) performed
+        by ``task``, or none: :class:`executive.ResourceConflict` for the first one held
+        outside the goal's reach (nothing is acquired then). ``parts``: the robot's parts
+        (for the hint naming a free one)."""
+        uses = self._uses
+        if uses:
+            for resource in resources:
+                for use in uses.get(resource, ()):
+                    if (exclusive or use.exclusive) and not use.contains(task):
+                        raise _conflict(resource, use, goal, task, parts, self)
+        acquired = []
+        for resource in resources:  # distinct (resources_of)
+            use = _Use(resource, task, goal, is_action, exclusive)
+            held = uses.get(resource)
+            if held is None:
+                uses[resource] = [use]
+            else:
+                held.append(use)
+            acquired.append(use)
         return acquired
 
-    def release(self, uses: Iterable[_Use]) -> None:
+    def release(self, uses: list[_Use]) -> None:
+        held_by = self._uses
         for use in uses:
-            held = self._uses.get(use.resource)
+            held = held_by.get(use.resource)
             if held is None:
                 continue
-            for i, other in enumerate(held):
-                if other is use:
-                    del held[i]
-                    break
-            if not held:
-                del self._uses[use.resource]
+            if len(held) == 1:
+                if held[0] is use:
+                    del held_by[use.resource]
+            elif use in held:  # _Use compares by identity
+                held.remove(use)
 
 
 def _conflict(
     resource: Resource,
     holder: _Use,
-    what: str,
+    goal: Designator,
     task: cpl.Task,
     parts: frozenset[Resource],
     ledger: ResourceLedger,
@@ -249,9 +282,10 @@ def _conflict(
     advice = "perform them one after the other (await one, then the other; or cpl.seq)"
     if free:
         advice += f", or use another {resource.kind.value} ({', '.join(free)} is free)"
+    what = label(goal)
     return ResourceConflict(
-        f"{what} (in {_path(task)}) needs the {resource}, which {holder.describe()} holds: "
-        f"{advice}",
+        f"{what} (performed by {_path(task)}) needs the {resource}, held by "
+        f"{holder.describe()}: {advice}",
         resource=resource,
         holder=holder.what,
         holder_task=_path(holder.owner),
@@ -279,10 +313,12 @@ def check_parts(
 
 
 def resources_of(fn: Any, arguments: Any, designator: Designator) -> tuple[Resource, ...]:
-    """The resources a registered function names for a grounding's arguments, checked."""
+    """The distinct resources a registered function names for a grounding's arguments;
+    a function that fails on them is a :class:`executive.DesignatorError`, one that
+    names something else than resources a ``TypeError``."""
     try:
         out = fn(arguments)
-        found = tuple(out) if out is not None else ()
+        found = out if type(out) is tuple else tuple(out) if out is not None else ()
     except (KeyError, TypeError, ValueError, LookupError) as exc:
         raise DesignatorError(
             f"{designator.short()}: its resources could not be read from its grounding "
@@ -290,9 +326,9 @@ def resources_of(fn: Any, arguments: Any, designator: Designator) -> tuple[Resou
             designator,
         ) from exc
     for r in found:
-        if not isinstance(r, Resource):
+        if r.__class__ is not Resource:
             raise TypeError(
                 f"the resources registered for {designator.short()} must be "
                 f"executive.Resource values, got {r!r}"
             )
-    return found
+    return found if len(found) < 2 else tuple(dict.fromkeys(found))
