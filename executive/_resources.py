@@ -6,7 +6,9 @@ A :class:`Resource` is one part of the robot as data: a kind (:class:`ResourceKi
 several of, the part's name (``Resource.arm("left")``). ``executive`` defines only the
 kinds; which parts a robot has is robot data: each process module lists the parts it
 drives (:attr:`executive.ProcessModule.resources`), and an environment's parts are those
-of its modules (:attr:`executive.Environment.resources`; empty when none says).
+of its modules (:attr:`executive.Environment.resources`). A goal that needs a part of a
+listed kind that is not listed (the left arm of a one-armed robot) fails to resolve, with
+a :class:`executive.DesignatorError` naming the parts there are.
 
 What a goal needs is knowledge, registered like the resolution rules, for the target of
 its grounding (:meth:`executive.RuleSet.register_resources`): for an action, the plan

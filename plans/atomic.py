@@ -135,7 +135,8 @@ def _going(d: Designator) -> Iterator[Any]:
     yield go_to_target, {"target": target}
 
 
-register_resources(go_to_target, lambda _args: (Resource.base(),))
+_BASE, _HEAD, _TORSO = (Resource.base(),), (Resource.head(),), (Resource.torso(),)
+register_resources(go_to_target, lambda _args: _BASE)
 
 
 # ------------------------------------------------------------------------------ looking
@@ -169,7 +170,7 @@ def _looking(d: Designator) -> Iterator[Any]:
     yield look_at, {"motion": a.motion(type="looking", **props)}
 
 
-register_resources(look_at, lambda _args: (Resource.head(),))
+register_resources(look_at, lambda _args: _HEAD)
 
 
 # ---------------------------------------------------------------------------- detecting
@@ -216,7 +217,7 @@ def _detecting(d: Designator) -> Iterator[Any]:
     yield perceive, {"object_designator": obj}
 
 
-register_resources(perceive, lambda _args: (Resource.head(),), shared=True)
+register_resources(perceive, lambda _args: _HEAD, shared=True)
 
 
 # -------------------------------------------------------------------------------- torso
@@ -234,7 +235,7 @@ def _moving_torso(d: Designator) -> Iterator[Any]:
     yield move_torso, {"joint_angle": float(angle)}
 
 
-register_resources(move_torso, lambda _args: (Resource.torso(),))
+register_resources(move_torso, lambda _args: _TORSO)
 
 
 # ----------------------------------------------------------------------------- arm moves

@@ -138,7 +138,8 @@ def _navigating(d: Designator) -> Iterator[Any]:
     yield go_without_collisions, {"location": _location(d, "location")}
 
 
-register_resources(go_without_collisions, lambda _args: (Resource.base(),))
+_BASE = (Resource.base(),)
+register_resources(go_without_collisions, lambda _args: _BASE)
 
 
 # ----------------------------------------------------------------------- turning towards
@@ -189,7 +190,8 @@ def _turning_towards(d: Designator) -> Iterator[Any]:
     yield turn_towards, {"target": _location(d, "target")}
 
 
-register_resources(turn_towards, lambda _args: (Resource.head(), Resource.base()))
+_HEAD_AND_BASE = (Resource.head(), Resource.base())
+register_resources(turn_towards, lambda _args: _HEAD_AND_BASE)
 
 
 # --------------------------------------------------------------------------- backing off
