@@ -430,3 +430,26 @@ def test_environment_parts_are_its_modules_parts(mrun: Any) -> None:
         return current_environment().resources
 
     assert run(mrun, pms, body) == ARMS | GRIPPERS | {Resource.base()}
+
+
+def test_a_handler_answers_the_conflict_by_sequencing_the_goals(mrun: Any) -> None:
+    # the conflict is a plan failure raised before anything moved: a handler can do what
+    # it says (perform them one after the other) and both goals happen, in order
+    pms = modules()
+    goals = [an.action(type="reaching", arm="left", pose=pose) for pose in (LEFT, RIGHT)]
+    handled: list[BaseException] = []
+
+    async def together() -> Any:
+        return await cpl.par(*(perform(goal) for goal in goals))
+
+    async def one_after_the_other(failure: BaseException) -> None:
+        handled.append(failure)
+        assert pms["arms"].calls == []  # nothing moved before the handler
+        cpl.return_([await perform(goal) for goal in goals])
+
+    async def body() -> Any:
+        return await cpl.with_failure_handling(together, [(ResourceConflict, one_after_the_other)])
+
+    assert run(mrun, pms, body) == [f"left at {LEFT.position}", f"left at {RIGHT.position}"]
+    assert tool_goals(pms["arms"]) == [(LEFT, None), (RIGHT, None)]
+    assert [type(f) for f in handled] == [ResourceConflict]
