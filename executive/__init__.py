@@ -31,12 +31,14 @@ from ._perform import perform
 from ._pose import Pose, Transform, yaw_quaternion
 from ._process_module import PMStatus, ProcessModule, pm_execute
 from ._queries import action_of, newest_effective, performed, previous_performed
+from ._resources import Resource, ResourceKind
 from ._ruledoc import Key, Retry, RuleDoc
 from ._rules import (
     RuleSet,
     builtin_rules,
     register_location_generator,
     register_location_validator,
+    register_resources,
     register_rule,
     rule,
     static_rules,
@@ -87,6 +89,8 @@ __all__ = [
     "Key",
     "Retry",
     "RuleDoc",
+    "Resource",
+    "ResourceKind",
     "RuleSet",
     "SolutionCursor",
     "Transform",
@@ -117,6 +121,7 @@ __all__ = [
     "previous_performed",
     "register_location_generator",
     "register_location_validator",
+    "register_resources",
     "register_rule",
     "retry_scope",
     "retry_with_designator_solutions",

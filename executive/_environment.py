@@ -19,6 +19,7 @@ from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
+from ._resources import Resource, ResourceLedger
 from ._rules import RuleSet, static_rules
 from ._world import ProjectionWorld
 from .failures import NoWorldModel
@@ -78,7 +79,9 @@ class Environment:
 
     __slots__ = (
         "_frozen",
+        "_ledger",
         "_owns_rules",
+        "_parts",
         "_subscribers",
         "_world",
         "imagination",
@@ -111,6 +114,12 @@ class Environment:
             raise TypeError(f"rules must be an executive.RuleSet, got {rules!r}")
         self._owns_rules = rules is not None and not self.rules.frozen
         self._subscribers = _Subscribers()
+        # who holds which robot part (executive._resources); shared with the environments
+        # derived from this one, which drive the same robot
+        self._ledger = ResourceLedger()
+        # the robot's parts (see resources), computed on first use: the process modules
+        # and the parts they declare do not change once the environment is built
+        self._parts: frozenset[Resource] | None = None
         self.parent: Environment | None = None
         self._frozen = False
 
@@ -150,8 +159,20 @@ class Environment:
         )
         env._owns_rules = False if rules is None else env._owns_rules
         env._subscribers = self._subscribers
+        env._ledger = self._ledger
         env.parent = self
         return env
+
+    @property
+    def resources(self) -> frozenset[Resource]:
+        """The robot's parts: those its process modules drive
+        (:attr:`executive.ProcessModule.resources`). A goal that needs a part of a kind
+        listed here that is not listed fails to resolve; a kind no module lists is
+        unknown, and any part of it is accepted."""
+        parts = self._parts
+        if parts is None:
+            parts = self._parts = frozenset().union(*(pm.resources for pm in self.process_modules))
+        return parts
 
     def is_within(self, other: Environment) -> bool:
         """True if this environment is ``other`` or was derived from it."""

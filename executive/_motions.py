@@ -25,6 +25,11 @@ moving-tcp                 left-pose?, right-pose? (>= 1),       move-tcp {left,
 moving-arm-joints          left-joint-states?,                   move-joints {left, right}
                            right-joint-states? (>= 1)
 =========================  ====================================  =============================
+
+The resources each command uses while it runs (:mod:`executive._resources`): ``move-base``
+the base, ``move-torso`` the torso, ``move-head`` and ``detect`` the head (perception reads
+the camera where the head points), ``move-gripper-joint`` the grippers it names,
+``move-tcp`` and ``move-joints`` the arms that have a goal.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from typing import Any, Final
 
 from ._designator import Designator
 from ._pose import Pose
+from ._resources import Resource
 from ._ruledoc import Key, RuleDoc
 from ._rules import WILDCARD, builtin_rules
 from ._solutions import MotionCommand, ObjectData
@@ -413,3 +419,31 @@ builtin_rules.register(
         any_key=True,
     ),
 )
+
+
+_BASE = (Resource.base(),)
+_TORSO = (Resource.torso(),)
+_HEAD = (Resource.head(),)
+_ARM = {side: Resource.arm(side) for side in _ARMS}
+_GRIPPER_PART = {side: Resource.gripper(side) for side in _ARMS}
+
+
+def _grippers(args: Any) -> tuple[Resource, ...]:
+    value = args["gripper"]
+    return tuple(_GRIPPER_PART[g] for g in ((value,) if isinstance(value, str) else value))
+
+
+def _arms(args: Any) -> tuple[Resource, ...]:
+    return tuple(_ARM[side] for side in _ARMS if args.get(side) is not None)
+
+
+for _command, _uses in (
+    ("move-base", lambda _args: _BASE),
+    ("move-torso", lambda _args: _TORSO),
+    ("move-head", lambda _args: _HEAD),
+    ("detect", lambda _args: _HEAD),
+    ("move-gripper-joint", _grippers),
+    ("move-tcp", _arms),
+    ("move-joints", _arms),
+):
+    builtin_rules.register_resources(_command, _uses)

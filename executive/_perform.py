@@ -14,12 +14,19 @@
 - **Object or location designator**: :class:`executive.DesignatorError`, they describe
   things, not something to do.
 
+Resources (:mod:`executive._resources`): an action whose plan has registered resources
+claims them, once resolved and before its plan starts, for its whole duration; a motion
+whose command has registered resources uses them while it runs. A resource held by a
+concurrent action outside the goal's own subtree: :class:`executive.ResourceConflict`,
+before anything moves for the goal.
+
 Resolution errors (:class:`executive.DesignatorError`) propagate unchanged; evaporation of
 the caller evaporates the running plan or goal (see :mod:`executive._process_module`).
 """
 
 from __future__ import annotations
 
+import asyncio
 import inspect
 from collections.abc import Mapping
 from typing import Any
@@ -27,7 +34,8 @@ from typing import Any
 import cpl
 
 from ._designator import ActionDesignator, Designator, MotionDesignator
-from ._environment import current_environment
+from ._environment import Environment, current_environment
+from ._resources import check_parts, resources_of
 from .failures import DesignatorError, NoProcessModule
 
 __all__ = ["perform"]
@@ -84,25 +92,85 @@ async def _perform_motion(motion: MotionDesignator) -> Any:
             f"{env.name!r}: {names}){hint}",
             motion=motion,
         )
-    motion.reference()
+    command, arguments = motion.reference()
+    uses = _motion_uses(motion, command, arguments, env)
     first: BaseException | None = None
-    for pm in candidates:
-        try:
-            return await pm._submit(motion, env)
-        except cpl.PlanFailure as failure:
-            if first is None:
-                first = _unwrap(failure)
-    assert first is not None
     try:
+        for pm in candidates:
+            try:
+                return await pm._submit(motion, env)
+            except cpl.PlanFailure as failure:
+                if first is None:
+                    first = _unwrap(failure)
+        assert first is not None
         raise first
     finally:
         # this frame is in ``first``'s traceback: drop the local, or failure -> traceback
         # -> frame -> failure is a reference cycle only the cyclic collector frees
         first = None
+        if uses is not None:
+            env._ledger.release(uses)
+
+
+def _motion_uses(
+    motion: MotionDesignator, command: str, arguments: Any, env: Environment
+) -> list[Any] | None:
+    """The resources a motion uses while it runs (shared with other motions), acquired;
+    ``None`` when its command registered none."""
+    declared = env.rules.resources_for(command)
+    if declared is None:
+        return None
+    task = cpl.current_task()
+    resources = resources_of(declared[0], arguments, motion)
+    if task is None or not resources:
+        return None
+    parts = env.resources
+    check_parts(resources, parts, motion)
+    return env._ledger.acquire(
+        resources, task, motion, is_action=False, exclusive=False, parts=parts
+    )
 
 
 async def _perform_action(action: ActionDesignator) -> Any:
     grounding = action.reference()
+    plan, arguments = grounding
+    env = current_environment()
+    declared = env.rules.resources_for(plan)
+    if declared is None:
+        return await _run_plan(action, grounding)
+    fn, shared = declared
+    resources = resources_of(fn, arguments, action)
+    task = cpl.current_task()
+    if task is None or not resources:
+        return await _run_plan(action, grounding)
+    parts = env.resources
+    check_parts(resources, parts, action)
+    ledger = env._ledger
+    uses = ledger.acquire(
+        resources, task, action, is_action=True, exclusive=not shared, parts=parts
+    )
+    try:
+        await _let_siblings_claim()
+        return await _run_plan(action, grounding)
+    finally:
+        ledger.release(uses)
+
+
+async def _let_siblings_claim() -> None:
+    """Two scheduling points between an action's claim and its plan's first step.
+
+    A form starts its branches one after the other: without them, the first branch's
+    plan could run up to its first motion (a projected motion teleports at once) before
+    the second branch claims, and the conflict would evaporate a branch that had moved
+    already. With them, the siblings the same form started claim first (the loop runs
+    each branch's first step in order), and a conflict's failure reaches the form, which
+    evaporates this branch, before this plan resumes: neither moves. (One point lets the
+    siblings run; the second lets the form, woken by a sibling's failure, act first.)"""
+    await asyncio.sleep(0)
+    await asyncio.sleep(0)
+
+
+async def _run_plan(action: ActionDesignator, grounding: Any) -> Any:
     plan, arguments = grounding
     if isinstance(arguments, Mapping):
         call = plan(**arguments)

@@ -38,6 +38,7 @@ from .failures import NoProcessModule, ProcessModuleGoalEvaporated
 
 if TYPE_CHECKING:
     from ._designator import Designator
+    from ._resources import Resource
 
 __all__ = ["PMStatus", "ProcessModule", "pm_execute"]
 
@@ -86,6 +87,9 @@ class ProcessModule(abc.ABC):
     #: derive from :class:`executive.BlockingProcessModule`, which runs the work in a worker
     #: thread so that the loop stays responsive (``executive._blocking``).
     blocking: ClassVar[bool] = False
+    #: The robot parts this module drives (robot data: ``{Resource.base()}`` for a
+    #: navigation module); the environment's parts are its modules'. Empty: not declared.
+    resources: frozenset[Resource] = frozenset()
 
     def __init__(self, name: str | None = None) -> None:
         if name is not None and (not isinstance(name, str) or not name):

@@ -42,6 +42,7 @@ __all__ = [
     "builtin_rules",
     "register_location_generator",
     "register_location_validator",
+    "register_resources",
     "register_rule",
     "rule",
     "static_rules",
@@ -150,6 +151,9 @@ class RuleSet:
         self._replaced: set[tuple[str, str]] = set()
         self._generators: list[Rule] = []
         self._validators: list[Rule] = []
+        # grounding target (an action's plan function, a motion's command name) ->
+        # (function of the grounding's arguments naming the resources, shared?)
+        self._resources: dict[Any, tuple[Callable[[Any], Any], bool]] = {}
         self._seq = 0
         self._version = 0
         self._frozen = False
@@ -272,6 +276,47 @@ class RuleSet:
         self._validators.append(Rule("location", "validator", priority, seq, fn, call))
         return fn
 
+    def register_resources(
+        self, target: Any, fn: Callable[[Any], Any], *, shared: bool = False
+    ) -> None:
+        """Declare the robot parts (:class:`executive.Resource`) a goal occupies, as a
+        function of its grounding's resolved arguments: ``target`` is the plan function an
+        action rule yields (``fn(arguments)`` for an action grounding ``(plan,
+        arguments)``) or the command name of a motion (``fn(arguments)`` for a motion
+        command ``(command, arguments)``). ``fn`` returns the resources (an iterable).
+
+        An action claims them for its whole duration, exclusively; a motion uses them
+        while it runs, sharing them with other motions; ``shared=True`` makes an action's
+        claim shared too (it coexists with other shared uses and with motions, and
+        conflicts with an exclusive claim held outside its subtree). See
+        :mod:`executive._resources` for what two goals on one resource do."""
+        if not (isinstance(target, str) and target) and not callable(target):
+            raise TypeError(
+                "register_resources needs the plan function an action rule yields or a "
+                f"motion command name, got {target!r}"
+            )
+        if not callable(fn):
+            raise TypeError(
+                f"register_resources needs a function of the grounding's arguments, got {fn!r}"
+            )
+        self._bump()
+        self._resources[target] = (fn, bool(shared))
+
+    def resources_for(self, target: Any) -> tuple[Callable[[Any], Any], bool] | None:
+        """The registration for a grounding target (this set's, else the nearest
+        parent's), or ``None``: the goal needs no resource."""
+        rs: RuleSet | None = self
+        while rs is not None:
+            if rs._resources:
+                try:
+                    found = rs._resources.get(target)
+                except TypeError:  # an unhashable target: registered for nothing
+                    return None
+                if found is not None:
+                    return found
+            rs = rs.parent
+        return None
+
     def child(self, name: str | None = None) -> RuleSet:
         """A new rule set overlaid on this one."""
         return RuleSet(parent=self, name=name or f"{self.name}+")
@@ -294,11 +339,19 @@ class RuleSet:
             list(self._generators),
             list(self._validators),
             self._frozen,
+            dict(self._resources),
         )
         try:
             yield self
         finally:
-            self._rules, self._replaced, self._generators, self._validators, self._frozen = saved
+            (
+                self._rules,
+                self._replaced,
+                self._generators,
+                self._validators,
+                self._frozen,
+                self._resources,
+            ) = saved
             self._version += 1  # a new stamp: lookups cached in the block are stale
 
     # -- lookup -----------------------------------------------------------------------------
@@ -441,3 +494,9 @@ def register_location_generator(
 def register_location_validator(fn: F, priority: float = 0) -> F:
     """Register a location validator in the static rule set."""
     return static_rules.register_location_validator(fn, priority)
+
+
+def register_resources(target: Any, fn: Callable[[Any], Any], *, shared: bool = False) -> None:
+    """Declare a goal's resources in the static rule set (see
+    :meth:`RuleSet.register_resources`)."""
+    static_rules.register_resources(target, fn, shared=shared)

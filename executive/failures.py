@@ -58,6 +58,7 @@ __all__ = [
     "PtuGoalNotReached",
     "PtuGoalUnreachable",
     "PtuLowLevelFailure",
+    "ResourceConflict",
     "SearchingFailed",
     "TorsoGoalNotReached",
     "TorsoGoalUnreachable",
@@ -349,6 +350,25 @@ class ProcessModuleGoalEvaporated(PlanFailure):
     default_message = "The process-module goal was evaporated before it finished."
     motion = _field("motion")
     module = _field("module")
+
+
+class ResourceConflict(PlanFailure):
+    """A goal needs a part of the robot (an arm, the base...) that a concurrent action
+    outside its own subtree holds (see :mod:`executive._resources`). Raised before the
+    goal's plan starts or its motion reaches a process module, so nothing moved for it;
+    the message says what to do (perform them one after the other, or use a free part).
+    Not in CRAM, whose process modules queue a second goal silently. Neither a low-level
+    nor a high-level failure: handlers that ignore or retry those do not swallow it.
+    Fields: ``resource``, ``goal`` and ``task`` (the goal that failed and the task that
+    performed it), ``holder`` and ``holder_task`` (the goal that holds the resource)."""
+
+    cram_name = "resource-conflict"
+    default_message = "A resource the goal needs is held by a concurrent action."
+    resource = _field("resource")
+    goal = _field("goal")
+    task = _field("task")
+    holder = _field("holder")
+    holder_task = _field("holder_task")
 
 
 class NoWorldModel(LookupError):

@@ -21,6 +21,7 @@ import cpl
 from ._designator import Designator
 from ._pose import Pose, Transform
 from ._process_module import ProcessModule
+from ._resources import Resource
 from ._world import AABB, ProbeResult
 from .events import (
     ContainerClosed,
@@ -311,7 +312,9 @@ class FakeProcessModule(ProcessModule):
       raises ``failure`` (an instance, raised as is, or a class, instantiated without
       arguments);
     - ``result``: the value of each goal, or a callable ``result(motion)``;
-    - ``delay``: seconds of (loop clock) time each goal takes, via ``cpl.sleep``.
+    - ``delay``: seconds of (loop clock) time each goal takes, via ``cpl.sleep``;
+    - ``resources``: the robot parts it drives (:class:`executive.Resource`; the
+      environment's parts are its modules', see :attr:`executive.Environment.resources`).
 
     ``calls`` lists the motions of started goals, ``cancelled`` the motions given to
     ``on_cancel``, ``completed`` the motions that finished successfully.
@@ -326,8 +329,14 @@ class FakeProcessModule(ProcessModule):
         result: Any = None,
         delay: float = 0.0,
         cancel_delay: float = 0.0,
+        resources: Collection[Resource] = (),
     ) -> None:
         super().__init__(name)
+        parts = frozenset(resources)
+        for part in parts:
+            if not isinstance(part, Resource):
+                raise TypeError(f"resources are executive.Resource values, got {part!r}")
+        self.resources = parts
         self._accepts = _accept_predicate(accepts)
         self.fail_on: dict[int, BaseException | type[BaseException]] = dict(fail_on or {})
         for n in self.fail_on:

@@ -18,6 +18,7 @@ from executive import (
     LocationDesignator,
     ObjectDesignator,
     Pose,
+    Resource,
     a,
     current_environment,
     perform,
@@ -28,6 +29,8 @@ __all__ = [
     "ARM_PREFIX",
     "CountedRetries",
     "as_location",
+    "grippers_named",
+    "hand_of",
     "ignoring",
     "object_label",
     "perform_ignoring",
@@ -39,6 +42,20 @@ __all__ = [
     "translating_failures",
     "wrist_link",
 ]
+
+
+def hand_of(arguments: Any) -> tuple[Resource, Resource]:
+    """The resources of a plan that works with one hand (its ``arm`` argument): that arm
+    and its gripper (see :func:`executive.register_resources`)."""
+    arm = arguments["arm"]
+    return Resource.arm(arm), Resource.gripper(arm)
+
+
+def grippers_named(arguments: Any) -> tuple[Resource, ...]:
+    """The resources of a gripper plan: the grippers of its ``gripper`` argument (one
+    name, or several in a tuple)."""
+    value = arguments["gripper"]
+    return tuple(Resource.gripper(g) for g in ((value,) if isinstance(value, str) else value))
 
 
 #: Every retry a :class:`CountedRetries` grants or refuses is logged here (INFO), so a

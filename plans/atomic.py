@@ -23,8 +23,15 @@ closing with a gripper
 setting-gripper               set-gripper-to-position     gripper low-level ignored
 ============================  ==========================  =================================
 
-Every plan is evaporation-safe: it holds no resources, and ``going`` emits its
+Every plan is evaporation-safe: it holds nothing to clean up, and ``going`` emits its
 ``RobotStateChanged`` in a ``finally`` (CRAM's ``unwind-protect``).
+
+The robot parts each action claims for its duration (:func:`executive.register_resources`;
+what a concurrent goal on a claimed part does: :mod:`executive._resources`): ``going``
+the base, ``looking`` the head, ``detecting`` the head shared (perception coexists with
+other perception and motions, not with a ``looking`` outside its subtree),
+``moving-torso`` the torso, the arm actions the arms that have waypoints or a
+configuration, the gripper actions the grippers they name.
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ from executive import (
     PerceptionLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Resource,
     Retry,
     RuleDoc,
     TorsoLowLevelFailure,
@@ -57,11 +65,12 @@ from executive import (
     equate,
     knowledge,
     perform,
+    register_resources,
     rule,
 )
 from executive.events import ObjectDetached, ObjectPerceived, RobotStateChanged
 
-from ._common import CountedRetries, as_location, perform_ignoring, wrist_link
+from ._common import CountedRetries, as_location, grippers_named, perform_ignoring, wrist_link
 
 _log = logging.getLogger(__name__)
 
@@ -156,6 +165,10 @@ def _going(d: Designator) -> Iterator[Any]:
     yield go_to_target, {"target": target}
 
 
+_BASE, _HEAD, _TORSO = (Resource.base(),), (Resource.head(),), (Resource.torso(),)
+register_resources(go_to_target, lambda _args: _BASE)
+
+
 # ------------------------------------------------------------------------------ looking
 @cpl.plan(name="look-at")
 async def look_at(motion: Designator) -> None:
@@ -210,6 +223,9 @@ def _looking(d: Designator) -> Iterator[Any]:
     if not props:
         raise DesignatorError(f"{d.short()} needs target, pose, object, frame or direction", d)
     yield look_at, {"motion": a.motion(type="looking", **props)}
+
+
+register_resources(look_at, lambda _args: _HEAD)
 
 
 # ---------------------------------------------------------------------------- detecting
@@ -283,6 +299,9 @@ def _detecting(d: Designator) -> Iterator[Any]:
     yield perceive, {"object_designator": obj}
 
 
+register_resources(perceive, lambda _args: _HEAD, shared=True)
+
+
 # -------------------------------------------------------------------------------- torso
 @cpl.plan(name="move-torso")
 async def move_torso(joint_angle: float) -> None:
@@ -305,6 +324,9 @@ def _moving_torso(d: Designator) -> Iterator[Any]:
     if not isinstance(angle, (int, float)):
         raise DesignatorError(f"{d.short()} needs a joint-angle (a number)", d)
     yield move_torso, {"joint_angle": float(angle)}
+
+
+register_resources(move_torso, lambda _args: _TORSO)
 
 
 # ----------------------------------------------------------------------------- arm moves
@@ -398,6 +420,10 @@ def _arm_motion_doc(action_type: str) -> RuleDoc:
 
 for _action_type in _COLLISION_MODES:
     rule("action", _action_type, doc=_arm_motion_doc(_action_type))(_arm_motion_rule(_action_type))
+register_resources(
+    move_arms_in_sequence,
+    lambda args: tuple(Resource.arm(side) for side in ("left", "right") if args[f"{side}_poses"]),
+)
 
 
 @cpl.plan(name="position-arms")
@@ -483,6 +509,12 @@ def _positioning_arm(d: Designator) -> Iterator[Any]:
             d,
         )
     yield position_arms, {"left": left, "right": right}
+
+
+register_resources(
+    position_arms,
+    lambda args: tuple(Resource.arm(side) for side in ("left", "right") if args[side]),
+)
 
 
 async def park_arms(configuration: str = "carry") -> None:
@@ -622,3 +654,7 @@ def _setting_gripper(d: Designator) -> Iterator[Any]:
             d,
         )
     yield set_gripper_to_position, {"gripper": _gripper(d), "position": float(position)}
+
+
+for _gripper_plan in (grip, release, open_or_close_gripper, set_gripper_to_position):
+    register_resources(_gripper_plan, grippers_named)

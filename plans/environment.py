@@ -6,7 +6,8 @@ takes the handle link (the ``_main`` suffix replaced by ``_handle``; its pose fr
 world model's ``link_pose``) approaching along the handle frame's +x axis, and the drawer
 opens along the handle frame's -x axis. Waypoints, in ``base_footprint`` when the action
 is referenced (after navigating): pregrasp (0.10 m before the handle), grasp, the handle
-moved by the distance (pulled or pushed), and a retreat 0.10 m further.
+moved by the distance (pulled or pushed), and a retreat 0.10 m further. Both claim the
+arm and gripper they use for their duration (:func:`executive.register_resources`).
 """
 
 from __future__ import annotations
@@ -33,11 +34,12 @@ from executive import (
     emit,
     knowledge,
     perform,
+    register_resources,
     rule,
 )
 from executive.events import ContainerClosed, ContainerOpened
 
-from ._common import perform_ignoring
+from ._common import hand_of, perform_ignoring
 
 __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
 
@@ -221,3 +223,5 @@ def _container_doc(verb: str) -> RuleDoc:
 
 for _verb in ("opening", "closing"):
     rule("action", _verb, doc=_container_doc(_verb))(_container_rule(_verb))
+for _plan in (open_container, close_container):
+    register_resources(_plan, hand_of)

@@ -13,6 +13,9 @@ parked next to a counter; ``fetch`` and ``deliver`` use it. Deliberate differenc
 CRAM: ``go-without-collisions`` does not ignore the going's failures (it drives again,
 then raises :class:`BaseStoppedShort`), and a ptu failure of the look forward while
 turning towards is ignored.
+
+``navigating`` claims the base for its duration, ``turning-towards`` the head and the base
+(it may turn the base) (:func:`executive.register_resources`).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from executive import (
     NavigationLowLevelFailure,
     Pose,
     PtuLowLevelFailure,
+    Resource,
     Retry,
     RuleDoc,
     a,
@@ -42,6 +46,7 @@ from executive import (
     current_environment,
     knowledge,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
@@ -171,6 +176,10 @@ def _navigating(d: Designator) -> Iterator[Any]:
     yield go_without_collisions, {"location": _location(d, "location")}
 
 
+_BASE = (Resource.base(),)
+register_resources(go_without_collisions, lambda _args: _BASE)
+
+
 # ----------------------------------------------------------------------- turning towards
 def _turned_base(target: Pose) -> Pose:
     """The robot's pose rotated in place to face ``target``."""
@@ -242,6 +251,10 @@ async def _turn_base_towards(target: LocationDesignator) -> None:
 )
 def _turning_towards(d: Designator) -> Iterator[Any]:
     yield turn_towards, {"target": _location(d, "target")}
+
+
+_HEAD_AND_BASE = (Resource.head(), Resource.base())
+register_resources(turn_towards, lambda _args: _HEAD_AND_BASE)
 
 
 # --------------------------------------------------------------------------- backing off

@@ -25,6 +25,11 @@ target orientation is kept as given, followed by its yaw + pi variant (the same 
 for the box-shaped objects with fixed poses, e.g. the cereal). These variants are further
 solutions of the grounding, target-major; :func:`plans.checks.check_placing_collisions`
 probes them in order.
+
+Both claim the arm and the gripper they use for their whole duration
+(:func:`executive.register_resources`): a concurrent goal on that hand from outside the
+action fails with :class:`executive.ResourceConflict` before anything moves (two
+``picking-up`` with one arm would otherwise interleave in the arm module's queue).
 """
 
 from __future__ import annotations
@@ -54,12 +59,13 @@ from executive import (
     emit,
     knowledge,
     perform,
+    register_resources,
     rule,
     yaw_quaternion,
 )
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
-from ._common import object_label, perform_ignoring, to_base, tool_frame, wrist_link
+from ._common import hand_of, object_label, perform_ignoring, to_base, tool_frame, wrist_link
 
 _log = logging.getLogger(__name__)
 
@@ -348,6 +354,9 @@ def _picking_up(d: Designator) -> Iterator[Any]:
                 )
 
 
+register_resources(pick_up, hand_of)
+
+
 # ------------------------------------------------------------------------------- placing
 @cpl.plan(name="place")
 async def place(
@@ -515,6 +524,9 @@ def _placing(d: Designator) -> Iterator[Any]:
                         "grasp": grasp_name,
                     },
                 )
+
+
+register_resources(place, hand_of)
 
 
 async def release_held(object_designator: Any) -> None:

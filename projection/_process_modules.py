@@ -16,6 +16,10 @@ arms           moving-tcp, moving-arm-joints                                ``mo
                                                                             ``move_joints``
 =============  ===========================================================  ================
 
+Each module lists the robot parts it drives (:attr:`executive.ProcessModule.resources`:
+the base, the torso, the head, the grippers and the arms of :data:`executive.knowledge.ARMS`),
+so the projection environment knows the robot's parts.
+
 Failures are the world's typed low-level failures (``NavigationPoseUnreachable``,
 ``TorsoGoalNotReached``, ``PtuGoalNotReached``, ``PerceptionObjectNotFound``,
 ``GripperClosedCompletely``/``GripperGoalNotReached``, ``ManipulationPoseUnreachable``,
@@ -32,9 +36,10 @@ from typing import Any, ClassVar
 import pybullet as pb
 
 import executive
-from executive import Designator, MotionCommand, Pose, ProcessModule, an, equate
+from executive import Designator, MotionCommand, Pose, ProcessModule, Resource, an, equate
 from executive.events import ObjectPerceived, emit
 from executive.failures import ManipulationGoalNotReached, PtuGoalNotReached
+from executive.knowledge import ARMS
 from projection._world import World
 
 __all__ = [
@@ -140,6 +145,7 @@ class NavigationPM(ProjectionProcessModule):
     :class:`executive.NavigationPoseUnreachable` with the robot where it was."""
 
     motion_types = frozenset({"going"})
+    resources = frozenset({Resource.base()})
     commands = frozenset({"move-base"})
 
     def __init__(self, world: World) -> None:
@@ -154,6 +160,7 @@ class TorsoPM(ProjectionProcessModule):
     :class:`executive.TorsoGoalNotReached`."""
 
     motion_types = frozenset({"moving-torso"})
+    resources = frozenset({Resource.torso()})
     commands = frozenset({"move-torso"})
 
     def __init__(self, world: World) -> None:
@@ -171,6 +178,7 @@ class PtuPM(ProjectionProcessModule):
     :class:`LookupError`."""
 
     motion_types = frozenset({"looking"})
+    resources = frozenset({Resource.head()})
     commands = frozenset({"move-head"})
 
     def __init__(self, world: World) -> None:
@@ -251,6 +259,7 @@ class GripperMotions:
         {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
     )
     commands = frozenset({"move-gripper-joint"})
+    resources = frozenset(Resource.gripper(a) for a in ARMS)
 
     def accepts(self, motion: Designator) -> bool:
         return motion.type in self.motion_types or (
@@ -281,6 +290,7 @@ class ArmsPM(ProjectionProcessModule):
     the arms are unchanged on failure."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
+    resources = frozenset(Resource.arm(a) for a in ARMS)
     commands = frozenset({"move-tcp", "move-joints"})
 
     def __init__(self, world: World) -> None:

@@ -13,7 +13,7 @@ from typing import Any
 
 import pybullet as pb
 
-from executive import Designator, MotionCommand, Pose, an
+from executive import Designator, MotionCommand, Pose, Resource, an
 from executive.events import ObjectPerceived, emit
 from executive.failures import (
     GripperClosedCompletely,
@@ -23,7 +23,7 @@ from executive.failures import (
     PerceptionObjectNotFound,
     PtuGoalNotReached,
 )
-from executive.knowledge import ARM_PREFIX
+from executive.knowledge import ARM_PREFIX, ARMS
 from projection._arm_planner import (
     along_configs,
     clear_ik,
@@ -103,6 +103,7 @@ class RealNavigationPM(RealProcessModule):
     (``location=goal``)."""
 
     motion_types = frozenset({"going"})
+    resources = frozenset({Resource.base()})
     commands = frozenset({"move-base"})
 
     def __init__(self, body: _Body) -> None:
@@ -170,6 +171,7 @@ class RealTorsoPM(RealProcessModule):
     :class:`executive.TorsoGoalNotReached` before moving."""
 
     motion_types = frozenset({"moving-torso"})
+    resources = frozenset({Resource.torso()})
     commands = frozenset({"move-torso"})
 
     def __init__(self, body: _Body) -> None:
@@ -193,6 +195,7 @@ class RealPtuPM(RealProcessModule):
     before moving; a ptu fault stops the head part of the way and raises it too."""
 
     motion_types = frozenset({"looking"})
+    resources = frozenset({Resource.head()})
     commands = frozenset({"move-head"})
 
     def __init__(self, body: _Body) -> None:
@@ -358,6 +361,7 @@ class RealArmsPM(RealProcessModule):
     way; the motion then ends and raises :class:`executive.GripperClosedCompletely`."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
+    resources = frozenset(Resource.arm(a) for a in ARMS)
     commands = frozenset({"move-tcp", "move-joints"})
 
     def __init__(self, body: _Body) -> None:
