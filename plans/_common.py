@@ -36,6 +36,7 @@ __all__ = [
     "perform_ignoring",
     "retry_ledger",
     "tally",
+    "the_base",
     "to_base",
     "tool_frame",
     "translating_designator_errors",
@@ -49,6 +50,19 @@ def hand_of(arguments: Any) -> tuple[Resource, Resource]:
     and its gripper (see :func:`executive.register_resources`)."""
     arm = arguments["arm"]
     return Resource.arm(arm), Resource.gripper(arm)
+
+
+_BASE_ONLY = (Resource.base(),)
+
+
+def the_base(_arguments: Any) -> tuple[Resource]:
+    """The resources of a plan that positions the base for what it does next (fetching,
+    delivering, searching, transporting, accessing): the base, for the plan's whole
+    duration. Its own navigation claims it again within that claim; a sibling branch's
+    plan that needs the base fails with :class:`executive.ResourceConflict` before it
+    drives, instead of driving the base away between this plan's navigation and its
+    grasp."""
+    return _BASE_ONLY
 
 
 def grippers_named(arguments: Any) -> tuple[Resource, ...]:

@@ -41,6 +41,7 @@ from executive import (
     current_environment,
     kitchen,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
@@ -49,6 +50,7 @@ from ._common import (
     CountedRetries,
     ignoring,
     object_label,
+    the_base,
     to_base,
     to_map,
     translating_designator_errors,
@@ -325,3 +327,6 @@ async def drop_at_sink(object_designator: ObjectDesignator) -> None:
         await ignoring(drop, (cpl.PlanFailure, DesignatorError))
     finally:
         await cpl.shielded(release_held(object_designator))
+
+
+register_resources(deliver, the_base)

@@ -37,12 +37,14 @@ from executive import (
     an,
     current_environment,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
 
 from ._common import (
     CountedRetries,
+    the_base,
     translating_designator_errors,
 )
 from ._designators import ROBOT, _location
@@ -162,3 +164,6 @@ def _environment_doc(verb: str) -> RuleDoc:
 
 for _verb in ("accessing", "sealing"):
     rule("action", _verb, doc=_environment_doc(_verb))(_environment_rule(_verb))
+
+
+register_resources(manipulate_environment, the_base)

@@ -47,6 +47,7 @@ from executive import (
     an,
     current_environment,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
@@ -55,6 +56,7 @@ from ._common import (
     CountedRetries,
     object_label,
     tally,
+    the_base,
     translating_designator_errors,
 )
 from ._designators import ROBOT, _check_places, _object, default_of
@@ -359,3 +361,6 @@ def _fetching(d: Designator) -> Iterator[Any]:
             "pick_up_action": d.get("pick-up-action"),
         },
     )
+
+
+register_resources(fetch, the_base)

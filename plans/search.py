@@ -36,6 +36,7 @@ from executive import (
     current_environment,
     knowledge,
     perform,
+    register_resources,
     retry_scope,
     rule,
 )
@@ -43,6 +44,7 @@ from executive import (
 from ._common import (
     CountedRetries,
     object_label,
+    the_base,
     translating_designator_errors,
 )
 from ._designators import ROBOT, _check_places, _location, _object, default_of
@@ -182,3 +184,6 @@ def _searching(d: Designator) -> Iterator[Any]:
             "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),
         },
     )
+
+
+register_resources(search_for_object, the_base)

@@ -31,9 +31,11 @@ from executive import (
     a,
     an,
     perform,
+    register_resources,
     rule,
 )
 
+from ._common import the_base
 from ._designators import ROBOT, _check_places, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
@@ -221,3 +223,6 @@ def _transporting(d: Designator) -> Iterator[Any]:
             "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),
         },
     )
+
+
+register_resources(transport, the_base)
