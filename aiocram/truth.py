@@ -19,13 +19,17 @@ lets the true world settle and measures:
     body's own task and its ancestors (anything else would only be evaporated by the top
     level);
   - ``nothing_attached_before_cleanup`` / ``arms_at_rest_before_cleanup``: at the end of
-    the plan, *before* the demo's final cleanup releases and parks, nothing is held in the
+    the plan, *before* the demo's final cleanup parks the arms, nothing is held in the
     true world and both arms are at a rest configuration (``carry`` or ``park``); a
     violation means the cleanup had to intervene, and the report says what it did;
   - ``no_object_lost``: every object is on the island, the sink counter, in the drawer,
     and none lies on the floor, elsewhere, or toppled (tilted beyond
     :data:`UPRIGHT_DEG`);
-  - ``drawer_closed``; and after the cleanup ``nothing_attached`` and ``arms_parked``.
+  - ``drawer_closed``; and after the cleanup ``held_safely`` and ``arms_parked``: the
+    cleanup keeps holding what the robot still holds (an interrupted transport: Ctrl-C
+    while carrying must not drop the object, see ``plans.demo._finalize``), so an object
+    still attached is no violation as long as it is held *safely*, by an arm at ``carry``;
+    every free arm is at ``park``. An object dropped on the way is ``no_object_lost``'s.
 
 The observer never changes the physics during the run: it only reads the true world
 (and subscribes to events, which it does not alter). The settle happens after the run.
@@ -78,7 +82,7 @@ INVARIANTS = (
     "arms_at_rest_before_cleanup",
     "no_object_lost",
     "drawer_closed",
-    "nothing_attached",
+    "held_safely",
     "arms_parked",
 )
 
@@ -198,6 +202,16 @@ def leaked_tasks(tasks: Iterable[cpl.Task], current: cpl.Task | None) -> list[cp
     return [t for t in tasks if t.alive and id(t) not in keep]
 
 
+def _holding_arm(link: str) -> str | None:
+    """The arm a robot link belongs to (``l_*``/``r_*``), or None."""
+    from executive.knowledge import ARM_PREFIX
+
+    for arm, prefix in ARM_PREFIX.items():
+        if link.startswith(prefix + "_"):
+            return arm
+    return None
+
+
 def _arm_error(world: Any, configuration: str) -> dict[str, float]:
     from executive.knowledge import arm_configuration
 
@@ -312,8 +326,12 @@ class TruthObserver:
         else:
             held = self._held_before
             check("nothing_attached_before_cleanup", not held, f"held: {sorted(held)}")
-            if held:
-                cleanup.append(f"released {', '.join(sorted(held))}")
+            kept = sorted(n for n in held if n in _robot_holds(world))
+            released = sorted(n for n in held if n not in kept)
+            if released:
+                cleanup.append(f"released {', '.join(released)}")
+            if kept:
+                cleanup.append(f"kept holding {', '.join(kept)}")
             at_rest = any(max(err.values()) <= ARM_TOLERANCE for err in self._arms_before.values())
             detail = "; ".join(
                 f"{arm} arm {min(errs[arm] for errs in self._arms_before.values()):.2f} rad"
@@ -331,10 +349,21 @@ class TruthObserver:
         check("no_object_lost", not lost, "; ".join(lost))
         drawer = world.joint_position(DRAWER_JOINT)
         check("drawer_closed", abs(drawer) < 0.01, f"drawer open {drawer:.3f} m")
-        held_now = _robot_holds(world)
-        check("nothing_attached", not held_now, f"still attached: {sorted(held_now)}")
+        holding = {name: _holding_arm(link) for name, link in _robot_holds(world).items()}
+        carry = _arm_error(world, "carry")
+        unsafe = [
+            f"{name} held by {arm or 'no'} arm"
+            + ("" if arm is None else f" {carry[arm]:.2f} rad from carry")
+            for name, arm in sorted(holding.items())
+            if arm is None or carry[arm] > ARM_TOLERANCE
+        ]
+        check("held_safely", not unsafe, "; ".join(unsafe))
         err = _arm_error(world, "park")
-        off = [f"{arm} arm {e:.2f} rad from park" for arm, e in err.items() if e > ARM_TOLERANCE]
+        off = [
+            f"{arm} arm {e:.2f} rad from park"
+            for arm, e in err.items()
+            if e > ARM_TOLERANCE and arm not in holding.values()
+        ]
         check("arms_parked", not off, "; ".join(off))
         return TruthReport(objects, ok, why, cleanup)
 

@@ -9,6 +9,13 @@
   :class:`executive.Environment`'s ``world`` is, and so what every plan may use.
 - :class:`SceneSetup` -- what a demo needs to lay out a scene on a world before a robot
   acts in it (spawn, remove, attach); not part of an environment.
+- optional capabilities of an environment's world, each a runtime-checkable protocol that
+  plans test with ``isinstance`` (a world model that cannot tell simply lacks it, and the
+  plan skips what needs it): :class:`ArmSweepProbe`, :class:`ContainerOpeningProbe`,
+  :class:`ContainerStates` (how far a drawer is open), :class:`ObjectInventory` (every
+  object the model knows) and :class:`ObjectSpawning` (stand-ins in imagination). Plans
+  never reach behind a world model (no ``getattr`` on it, no unwrapping of what it wraps):
+  what they may ask is what these protocols say.
 
 Implementations: ``projection.ProjectedWorldModel`` and ``projection.RealWorldModel``
 (PyBullet), :class:`executive.testing.InMemoryWorld` (plain Python); ``projection.World``
@@ -31,6 +38,9 @@ __all__ = [
     "AABB",
     "ArmSweepProbe",
     "ContainerOpeningProbe",
+    "ContainerStates",
+    "ObjectInventory",
+    "ObjectSpawning",
     "ProbeResult",
     "ProjectionWorld",
     "SceneSetup",
@@ -175,6 +185,50 @@ class ContainerOpeningProbe(Protocol):
 
     def probe_container_opening(self, container: Any, distance: float, arm: str) -> ProbeResult:
         """``container``: its designator or link/joint name; the world is left as it was."""
+        ...
+
+
+@runtime_checkable
+class ContainerStates(Protocol):
+    """An optional query (a world model that cannot tell simply lacks it; plans then take
+    a container's distances as given): where a jointed container (a drawer) is between
+    its limits. ``projection``'s world models implement it from their kitchen's joints."""
+
+    def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
+        """``(position, lower, upper)`` of the container's joint (a drawer: metres open
+        along its axis; closed at ``lower``). ``LookupError`` for a link or joint that is
+        not a jointed container of this world."""
+        ...
+
+
+@runtime_checkable
+class ObjectInventory(Protocol):
+    """An optional query (a world model that cannot tell simply lacks it): every object
+    the world model knows, by name (what projection reasoning compares before and after an
+    imagined run). ``projection``'s world models implement it."""
+
+    def object_names(self) -> Sequence[str]:
+        """The names of every object in the model (held ones included), in a stable
+        order."""
+        ...
+
+
+@runtime_checkable
+class ObjectSpawning(Protocol):
+    """An optional capability of an *imagined* world (a world model without it cannot
+    host stand-ins; plans then skip the reasoning that needs them): add and remove
+    objects, e.g. the stand-ins :mod:`plans.viewpoints` spawns to test what a viewpoint
+    sees. ``projection.ProjectedWorldModel`` implements it; a real robot's world model
+    does not (reality is not spawned into)."""
+
+    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+        """Add an object of a known type at ``pose``; returns its name. One that would
+        reach into another object or the robot is refused with ``ValueError`` (the world
+        unchanged)."""
+        ...
+
+    def remove_object(self, name: str) -> None:
+        """Remove an object (``LookupError`` if unknown)."""
         ...
 
 

@@ -16,6 +16,7 @@ from executive import (
     LocationDesignator,
     ObjectDesignator,
     Pose,
+    WorldQueries,
     current_environment,
 )
 
@@ -49,9 +50,15 @@ def _check_places(d: Designator, *keys: str) -> None:
     location under ``keys`` names a surface (``(on ...)`` with a ``urdf-name``, also inside
     nested locations) that the environment's world does not have. Without this, an
     unknown surface failed only when the plan reached it, after the base and arms had
-    moved (deliberate addition: CRAM checked nothing up front)."""
-    world = getattr(current_environment(), "world", None)
-    if world is None or not hasattr(world, "link_pose"):
+    moved (deliberate addition: CRAM checked nothing up front). An environment without a
+    world model (``Environment.has_world`` false), or with one that cannot answer link
+    queries (not an :class:`executive.WorldQueries`), has nothing to check against: the
+    check is skipped and the plan finds out when it gets there."""
+    env = current_environment()
+    if not env.has_world:
+        return
+    world = env.world
+    if not isinstance(world, WorldQueries):
         return
     stack: list[tuple[str, Any]] = [(key, d.get(key)) for key in keys]
     seen = 0

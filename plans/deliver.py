@@ -312,9 +312,12 @@ async def drop_at_sink(object_designator: ObjectDesignator) -> None:
     Deliberate deviations: the object is put down *on* the sink counter rather than
     released 0.35 m above it (:func:`_sink_drop_pose`), keeping the yaw it is held with
     (``free-yaw``: the drop's orientation means nothing, and the held yaw needs no turn of
-    the wrist); and a shielded cleanup releases the object if it is still in a hand (the
-    placing failed, or the drop was evaporated): open the gripper and ``ObjectDetached``
-    (:func:`plans.pick_place.release_held`), so no object stays attached after it."""
+    the wrist); and when the placing failed with the object still in a hand, it is
+    released there (:func:`plans.pick_place.release_held`: open the gripper and
+    ``ObjectDetached``), so no object stays attached after a failed drop. An evaporated
+    drop (Ctrl-C) releases nothing: the robot may be anywhere on its way, and the
+    caller's cleanup keeps the object held (see ``plans.demo``'s final cleanup; issue 23:
+    releasing it wherever the robot stood dropped it on the floor)."""
 
     async def drop() -> None:
         await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
@@ -323,10 +326,8 @@ async def drop_at_sink(object_designator: ObjectDesignator) -> None:
             an.action(type="placing", object=object_designator, target=target, free_yaw=True)
         )
 
-    try:
-        await ignoring(drop, (cpl.PlanFailure, DesignatorError))
-    finally:
-        await cpl.shielded(release_held(object_designator))
+    await ignoring(drop, (cpl.PlanFailure, DesignatorError))
+    await release_held(object_designator)  # not in a finally: never on evaporation
 
 
 register_resources(deliver, the_base)

@@ -16,6 +16,7 @@ before the bowl is left out (it changed nothing but the time taken); the final
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping, Sequence
@@ -40,6 +41,7 @@ from executive import (
     an,
     current_environment,
     kitchen,
+    knowledge,
     perform,
     yaw_quaternion,
 )
@@ -47,8 +49,8 @@ from executive.events import RobotStateChanged
 
 from ._common import CountedRetries, ignoring, retry_ledger
 from .atomic import park_arms
+from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
-from .pick_place import release_held
 
 __all__ = [
     "FIXED_POSES",
@@ -58,6 +60,8 @@ __all__ = [
     "place_location",
     "table_setting",
 ]
+
+log = logging.getLogger(__name__)
 
 SINK = an.object(type="counter-top", urdf_name=kitchen.SINK_SURFACE, part_of="kitchen")
 ISLAND = an.object(type="counter-top", urdf_name=kitchen.ISLAND_SURFACE, part_of="kitchen")
@@ -305,13 +309,80 @@ async def _initialize_or_finalize(configuration: str) -> None:
     await ignoring(lambda: park_arms(configuration), failures)
 
 
-async def _finalize(names: Sequence[str]) -> None:
-    """The demo's final cleanup: release whatever is still held (see
-    :func:`plans.pick_place.release_held`), then ``initialize-or-finalize`` with the arms
-    parked at the sides."""
-    for name in names:
-        await ignoring(partial(release_held, an.object(name=name)), (cpl.PlanFailure,))
-    await _initialize_or_finalize("park")
+#: Simulated seconds the demo's final cleanup may take (it normally takes a few: the
+#: arms are parked and the drawer closed already); then what is left of it is cancelled.
+FINALIZE_TIMEOUT = 300.0
+
+
+async def _finalize() -> None:
+    """The demo's final cleanup, also after Ctrl-C (which evaporates the plan): leave the
+    world safe, then CRAM's ``initialize-or-finalize`` with the arms parked at the sides.
+
+    What the robot still holds it keeps holding (deliberate difference from CRAM, whose
+    ``initialize-or-finalize`` opens both grippers wherever the robot stands, and from
+    this demo before issue 23, which released held objects there: interrupted while
+    carrying, it dropped the bowl on the floor 25 times out of 29). The arm that holds an
+    object goes to ``carry`` (the posture the plans carry objects in), a free arm to
+    ``park``; only free grippers are opened. Putting the object down instead was
+    considered: it is a whole placing (navigating, reaching, a stable free spot) after
+    the operator asked the robot to stop, and it can fail half-way; holding on is always
+    possible and ends in a known posture, the object over no edge.
+
+    A drawer the demo opens that the world model has open (the transport that opened it
+    was evaporated before its own cleanup could seal it, or that sealing failed) is
+    closed first, with a free arm (:func:`plans.environment_access.seal_if_open`).
+
+    Every step's failures are ignored, logged (``plans.demo``), and the steps go on; the
+    caller bounds the whole by :data:`FINALIZE_TIMEOUT`."""
+    held = _held()
+    await _ignoring_logged("close the drawer", lambda: seal_if_open(a.location(in_=DRAWER)))
+    await _position_arms(held)
+    await _ignoring_logged(
+        "go to the origin",
+        lambda: perform(an.action(type="going", target=a.location(pose=Pose()))),
+    )
+    free = tuple(arm for arm in knowledge.ARMS if arm not in held)
+    if free:
+        await _ignoring_logged(
+            "open the free grippers",
+            lambda: perform(an.action(type="opening-gripper", gripper=free)),
+        )
+    await _ignoring_logged(
+        "look forward", lambda: perform(an.action(type="looking", direction="forward"))
+    )
+    await _position_arms(held)
+
+
+def _held() -> dict[str, str]:
+    """arm -> the object its hand holds, in the world model."""
+    world = current_environment().world
+    return {arm: name for arm in knowledge.ARMS if (name := world.object_in_hand(arm))}
+
+
+async def _position_arms(held: Mapping[str, str]) -> None:
+    """A holding arm to ``carry``, a free one to ``park`` (failures ignored, logged)."""
+    configuration = {arm: "carry" if arm in held else "park" for arm in knowledge.ARMS}
+    await _ignoring_logged(
+        "position the arms",
+        lambda: perform(
+            an.action(
+                type="positioning-arm",
+                left_configuration=configuration["left"],
+                right_configuration=configuration["right"],
+            )
+        ),
+    )
+
+
+async def _ignoring_logged(what: str, body: Callable[[], Awaitable[object]]) -> None:
+    """Run ``body()``; a plan failure or designator error is logged (the cleanup goes on:
+    a failure it ignores on purpose is never silent)."""
+
+    def logged(failure: BaseException) -> None:
+        log.warning("final cleanup: could not %s: %s", what, failure)
+        cpl.return_(None)
+
+    await cpl.with_failure_handling(body, [((cpl.PlanFailure, DesignatorError), logged)])
 
 
 def _bowl_placed(outcomes: Mapping[str, ObjectOutcome]) -> bool:
@@ -477,7 +548,10 @@ async def table_setting(
         try:
             if before_cleanup is not None:
                 before_cleanup()
-            await cpl.shielded(_finalize([f"{t}-1" for t in objects]))
+            try:
+                await cpl.shielded(_finalize(), timeout=FINALIZE_TIMEOUT)
+            except TimeoutError:
+                log.error("final cleanup cut short after %s s", FINALIZE_TIMEOUT)
         finally:
             unsubscribe()
     return {t: outcomes[t] for t in objects if t in outcomes}

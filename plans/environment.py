@@ -20,6 +20,7 @@ import numpy as np
 
 import cpl
 from executive import (
+    ContainerStates,
     Designator,
     DesignatorError,
     GripperLowLevelFailure,
@@ -124,18 +125,19 @@ async def close_container(
 def _distance(d: Designator, container: Designator, opening: bool) -> float:
     """The ``distance`` of an opening/closing action, checked before the arm moves
     (deliberate addition): a number > 0 and, where the world model knows the container's
-    joint (``container_state``), within its travel from where it is now. Otherwise the
-    plan reached for the handle first and failed (or silently stopped) at the limit."""
+    joint (:class:`executive.ContainerStates`), within its travel from where it is now.
+    Otherwise the plan reached for the handle first and failed (or silently stopped) at
+    the limit."""
     value = d.get("distance", DEFAULT_DISTANCE)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
         raise DesignatorError(f"{d.short()}: distance must be a number of metres > 0", d)
     distance = float(value)
-    state = getattr(current_environment().world, "container_state", None)
+    world = current_environment().world
     name = container.get("urdf-name")
-    if state is None or not isinstance(name, str):
+    if not isinstance(world, ContainerStates) or not isinstance(name, str):
         return distance
     try:
-        position, lower, upper = state(name)
+        position, lower, upper = world.container_state(name)
     except LookupError:
         return distance  # not a jointed container this world knows: the plan will say
     room = (upper - position) if opening else (position - lower)

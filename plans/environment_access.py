@@ -21,12 +21,14 @@ from typing import Any
 
 import cpl
 from executive import (
+    ContainerStates,
     Designator,
     DesignatorError,
     EnvironmentManipulationImpossible,
     EnvironmentUnreachable,
     GripperLowLevelFailure,
     Key,
+    LocationDesignator,
     ManipulationLowLevelFailure,
     NavigationGoalInCollision,
     ObjectDesignator,
@@ -36,6 +38,7 @@ from executive import (
     a,
     an,
     current_environment,
+    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -52,7 +55,15 @@ from .checks import check_environment_manipulation_collisions
 from .environment import DEFAULT_DISTANCE, handle_link
 from .navigation import BaseStoppedShort
 
-__all__ = ["ENVIRONMENT_RELOCATION_FAILURES", "manipulate_environment"]
+__all__ = [
+    "CLOSED_WITHIN",
+    "ENVIRONMENT_RELOCATION_FAILURES",
+    "SEAL_TIMEOUT",
+    "free_arm",
+    "manipulate_environment",
+    "opening_of",
+    "seal_if_open",
+]
 
 log = logging.getLogger(__name__)
 
@@ -164,6 +175,80 @@ def _environment_doc(verb: str) -> RuleDoc:
 
 for _verb in ("accessing", "sealing"):
     rule("action", _verb, doc=_environment_doc(_verb))(_environment_rule(_verb))
+
+
+# ------------------------------------------------------------------------ cleanup sealing
+#: An opening (m) below which a container counts as closed (the sealing would have
+#: nothing to push).
+CLOSED_WITHIN = 0.005
+#: Simulated seconds a cleanup's sealing may take (10 relocations of navigating and
+#: closing take far less); then it is cancelled and fails.
+SEAL_TIMEOUT = 180.0
+
+
+def opening_of(container: ObjectDesignator) -> float | None:
+    """How far (m) the world model has ``container`` open from its closed limit; None when
+    it cannot tell (not an :class:`executive.ContainerStates`, or a container it does not
+    know as jointed)."""
+    world = current_environment().world
+    name = container.get("urdf-name")
+    if not isinstance(world, ContainerStates) or not isinstance(name, str):
+        return None
+    try:
+        position, lower, _upper = world.container_state(name)
+    except LookupError:
+        return None
+    return max(0.0, position - lower)
+
+
+def free_arm(preferred: str = "left") -> str | None:
+    """``preferred`` if its hand holds nothing (in the world model), else another empty
+    hand, else None."""
+    world = current_environment().world
+    for arm in (preferred, *(other for other in knowledge.ARMS if other != preferred)):
+        if world.object_in_hand(arm) is None:
+            return arm
+    return None
+
+
+async def seal_if_open(location: LocationDesignator, *, assume_open: bool = False) -> bool:
+    """Close the container of ``location`` (``(in <container>)``) if it is open, with
+    ``sealing``: the cleanup of whatever opened it. Returns whether it sealed.
+
+    Where the world model knows the container's joint (:class:`executive.ContainerStates`)
+    it is sealed when open by :data:`CLOSED_WITHIN` or more, by exactly its opening (also
+    a drawer left half open); where it cannot tell, only when ``assume_open`` (the caller
+    knows it opened it), by :data:`plans.environment.DEFAULT_DISTANCE`. The arm is the
+    left one unless that hand holds an object (a cleanup after an interrupted transport
+    may still hold it), then the other. Both hands full: ``EnvironmentManipulationImpossible``.
+    Bounded: after :data:`SEAL_TIMEOUT` simulated seconds the sealing is cancelled and
+    ``EnvironmentManipulationImpossible`` raised (a pending evaporation wins). Run it
+    shielded (``cpl.shielded``) from a ``finally``."""
+    container = location.get("in")
+    if not isinstance(container, ObjectDesignator):
+        raise DesignatorError(f"{location.short()}: sealing needs (in <container>)", location)
+    opening = opening_of(container)
+    if opening is None:
+        if not assume_open:
+            return False
+        distance = DEFAULT_DISTANCE
+    elif opening < CLOSED_WITHIN:
+        return False
+    else:
+        distance = opening
+    arm = free_arm()
+    if arm is None:
+        raise EnvironmentManipulationImpossible(
+            f"cannot seal {container.short()}: both hands hold objects"
+        )
+    sealing = an.action(type="sealing", location=location, arm=arm, distance=distance)
+    try:
+        await cpl.shielded(perform(sealing), timeout=SEAL_TIMEOUT)
+    except TimeoutError as timeout:
+        raise EnvironmentManipulationImpossible(
+            f"sealing {container.short()} did not finish within {SEAL_TIMEOUT} s"
+        ) from timeout
+    return True
 
 
 register_resources(manipulate_environment, the_base)

@@ -34,9 +34,9 @@ from executive import (
     Environment,
     Key,
     LocationDesignator,
+    ObjectInventory,
     Pose,
     RuleDoc,
-    SceneSetup,
     a,
     current_environment,
     newest_effective,
@@ -343,11 +343,11 @@ def _object_poses(world: Any, names: Sequence[str]) -> dict[str, Pose]:
 
 
 def _scene_names(world: Any) -> list[str]:
-    """The object names of the imagined world: a ``SceneSetup`` world's own, or the one it
-    wraps (the projection world model wraps its PyBullet world as ``.world``)."""
-    for candidate in (world, getattr(world, "world", None)):
-        if isinstance(candidate, SceneSetup):
-            return list(candidate.objects)
+    """The object names of the imagined world, where it can list them
+    (:class:`executive.ObjectInventory`); otherwise none (no run is judged by what it
+    moved)."""
+    if isinstance(world, ObjectInventory):
+        return list(world.object_names())
     return []
 
 

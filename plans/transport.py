@@ -39,6 +39,7 @@ from ._common import the_base
 from ._designators import ROBOT, _check_places, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
+from .environment_access import seal_if_open
 from .fetch import ObjectUnreachableOnFloor, search_floor
 from .reasoning import ProjectedParameters, with_projected_task_tree
 
@@ -68,17 +69,25 @@ async def transport(
     true; CRAM's demo disables it) and the environment can imagine; otherwise it is a
     pass-through. Cleanup: the container is sealed in a ``finally`` that runs
     shielded, so it also runs when the transport is evaporated (the evaporation is
-    re-raised afterwards). Returns the delivered object designator, or ``None`` when it was
+    re-raised afterwards); the ``accessing`` itself is inside it, so a transport
+    evaporated (Ctrl-C) or failed while the drawer was being opened closes it too, by
+    however far the world model has it open (:func:`plans.environment_access.seal_if_open`,
+    bounded in time; a world model that cannot tell is sealed only after ``accessing``
+    returned). Deliberate difference from CRAM, whose ``unwind-protect`` began after the
+    ``accessing``. Returns the delivered object designator, or ``None`` when it was
     dropped at the sink. ``viewpoint_reasoning`` (the ``viewpoint-reasoning`` property,
     default false): the search chooses where to look from by projection
     (:mod:`plans.viewpoints`)."""
     container = location.get("in")
-    accessible = container is None
-    if not accessible:
-        await perform(
-            an.action(type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE)
-        )
+    accessed = False  # accessing returned: the container is open as far as we know
     try:
+        if container is not None:
+            await perform(
+                an.action(
+                    type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE
+                )
+            )
+            accessed = True
         try:
             found = await perform(
                 an.action(
@@ -144,11 +153,8 @@ async def transport(
             found = await search_floor(found, failure)
             return await with_projected_task_tree(fetch_and_deliver, projection_runs, enabled=False)
     finally:
-        if not accessible:
-            sealing = an.action(
-                type="sealing", location=location, arm="left", distance=DEFAULT_DISTANCE
-            )
-            await cpl.shielded(perform(sealing))
+        if container is not None:
+            await cpl.shielded(seal_if_open(location, assume_open=accessed))
 
 
 async def _drop_and_return(obj: ObjectDesignator) -> None:

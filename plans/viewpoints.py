@@ -31,8 +31,8 @@ base poses and drives to the one predicted to see most of it:
 It composes with the search's retries: a search failure at that sample moves to the next
 sample, which chooses its viewpoint anew. Pass-through (navigate to the plain
 ``visible-for`` location, nothing drawn) when the environment is projecting, cannot
-imagine, or its imagined world cannot spawn the stand-ins (not a
-:class:`executive.SceneSetup`, e.g. an in-memory fake). Deliberate difference from CRAM,
+imagine, or its imagined world cannot spawn the stand-ins (not an
+:class:`executive.ObjectSpawning`, e.g. an in-memory fake). Deliberate difference from CRAM,
 which samples the visibility costmap for one point and never imagines a search.
 """
 
@@ -47,8 +47,8 @@ from executive import (
     Designator,
     DesignatorError,
     LocationDesignator,
+    ObjectSpawning,
     Pose,
-    SceneSetup,
     a,
     an,
     current_environment,
@@ -73,11 +73,9 @@ RUNS = 3
 STAND_IN = "viewpoint-stand-in"
 
 
-def _scene(world: Any) -> SceneSetup | None:
-    for candidate in (world, getattr(world, "world", None)):
-        if isinstance(candidate, SceneSetup):
-            return candidate
-    return None
+def _scene(world: Any) -> ObjectSpawning | None:
+    """The imagined world, if it can host stand-ins (:class:`executive.ObjectSpawning`)."""
+    return world if isinstance(world, ObjectSpawning) else None
 
 
 def _region_points(sample: Designator, spot: Pose) -> list[Pose]:

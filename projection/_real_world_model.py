@@ -74,6 +74,11 @@ class RealWorldModel:
     def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
         return self.belief.container_state(link_or_joint)
 
+    def object_names(self) -> list[str]:
+        """The objects of the belief (:class:`executive.ObjectInventory`). Spawning is
+        not offered (no :class:`executive.ObjectSpawning`): reality is not spawned into."""
+        return self.belief.object_names()
+
     def gripper_opening(self, arm: str) -> float | None:
         """The finger opening of ``arm``: the belief robot mirrors the true joint states
         (as a real robot's belief has them from its joint-state topic)."""

@@ -131,8 +131,23 @@ class ProjectedWorldModel:
         return self.world.link_pose(link, frame)
 
     def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
-        """``(position, lower, upper)`` of a container joint (see ``World``)."""
+        """``(position, lower, upper)`` of a container joint (see ``World``;
+        :class:`executive.ContainerStates`)."""
         return self.world.container_state(link_or_joint)
+
+    def object_names(self) -> list[str]:
+        """Every object of the world, by name (:class:`executive.ObjectInventory`)."""
+        return list(self.world.objects)
+
+    def spawn_object(self, name: str, type: str, pose: Pose) -> str:
+        """Add an object to the projected world (:class:`executive.ObjectSpawning`: the
+        stand-ins plans imagine with); refused with ``ValueError`` where it would reach
+        into another object or the robot, the world unchanged."""
+        return self.world.spawn_object(name, type, _pose(pose, "pose"))
+
+    def remove_object(self, name: str) -> None:
+        """Remove an object from the projected world (``LookupError`` if unknown)."""
+        self.world.remove_object(name)
 
     def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between the finger pads of ``arm``'s gripper (the robot's

@@ -118,7 +118,7 @@ def test_an_interrupted_run_checks_only_what_the_cleanup_left(worlds):
     report = obs.measure({}, interrupted=True)
     assert "no_task_leaked" not in report.invariants
     assert "nothing_attached_before_cleanup" not in report.invariants
-    assert {"drawer_closed", "nothing_attached", "arms_parked"} <= set(report.invariants)
+    assert {"drawer_closed", "held_safely", "arms_parked"} <= set(report.invariants)
 
 
 def test_held_object_and_unparked_arms_before_cleanup_are_reported(worlds):
@@ -141,19 +141,35 @@ def test_held_object_and_unparked_arms_before_cleanup_are_reported(worlds):
     assert "cup-1" in report.violations["nothing_attached_before_cleanup"]
     assert not report.invariants["arms_at_rest_before_cleanup"]
     assert report.cleanup_intervened == ["released cup-1", "parked the arms"]
-    assert report.invariants["nothing_attached"] and report.invariants["arms_parked"]
+    assert report.invariants["held_safely"] and report.invariants["arms_parked"]
 
 
-def test_held_and_unparked_after_cleanup_fail_too(worlds):
+def test_held_in_carry_after_cleanup_is_safe_but_a_free_arm_must_park(worlds):
+    """The cleanup keeps holding what it holds, in ``carry``: that holds ``held_safely``;
+    the other (free) arm at ``carry`` instead of ``park`` fails ``arms_parked``."""
     true_world, belief_world = worlds
     obs = _observed(true_world, belief_world)
     true_world.spawn_object("cup-1", "cup", _island_pose(true_world, half_height=0.05))
     true_world.attach("cup-1", "l_wrist_roll_link")
     true_world.park_arms("carry")
     report = obs.measure({"cup-1": True})
-    assert not report.invariants["nothing_attached"]
+    assert report.invariants["held_safely"], report.violations
     assert not report.invariants["arms_parked"]
+    assert report.violations["arms_parked"].startswith("right arm")
     assert report.objects["cup-1"].where == "hand" and report.objects["cup-1"].phantom
+    assert report.invariants["no_object_lost"]  # in the hand is not lost
+
+
+def test_held_by_an_arm_out_of_carry_is_not_held_safely(worlds):
+    true_world, belief_world = worlds
+    obs = _observed(true_world, belief_world)
+    true_world.spawn_object("cup-1", "cup", _island_pose(true_world, half_height=0.05))
+    true_world.attach("cup-1", "r_wrist_roll_link")
+    true_world.move_joints(right=[-1.0, 0.5, -1.0, -1.0, 0.0, -0.5, 0.0])
+    report = obs.measure({"cup-1": False}, settle_steps=0)
+    assert not report.invariants["held_safely"]
+    assert "cup-1 held by right arm" in report.violations["held_safely"]
+    assert report.invariants["arms_parked"]  # the left arm, the only free one, is parked
 
 
 def test_object_on_the_floor_is_lost_and_a_claimed_one_a_phantom(worlds):
