@@ -78,6 +78,11 @@ def _failure_text(failure: BaseException | None, limit: int) -> str:
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
+def _count(n: int, noun: str) -> str:
+    """``"1 failed task"``, ``"2 failed tasks"``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 def fold_failures(tasks: Any) -> list[tuple[str, int, BaseException | None]]:
     """Failed tasks (imagined ones left out) folded by name without its ``#N``: ``(name,
     count, last failure)``, most frequent first."""
@@ -220,7 +225,7 @@ def final_tree(root: Any, *, log: str | None = None, ascii: bool = False) -> Ren
         if child.end_time is not None and child.start_time is not None:
             duration = f" {format_duration(child.end_time - child.start_time)}"
         failed = sum(n for _, n, _ in folded)
-        extra = duration + (f" — {failed} failed tasks" if failed else "")
+        extra = duration + (f" — {_count(failed, 'failed task')}" if failed else "")
         branch = tree.add(_line(child, extra=extra))
         if child.failure is not None:
             branch.add(Text(_failure_text(child.failure, 100), style="red"))

@@ -13,8 +13,10 @@ the parsed namespace and returning the exit code), and list it in :data:`_SUBCOM
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from importlib import metadata
 from typing import Any
 
@@ -164,6 +166,32 @@ def _import_pybullet_quietly() -> None:
         pass
 
 
+#: How a log record or a Python warning reaches the console during a command: its level
+#: and the logger's name, like plans.log (``WARNING plans.fetch_deliver: ...``).
+LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
+
+
+@contextlib.contextmanager
+def _console_logging() -> Iterator[None]:
+    """Log records (WARNING and up) and Python warnings go to stderr as
+    :data:`LOG_FORMAT` while a command runs, instead of the bare message of logging's
+    last-resort handler. Left as it is when the root logger has handlers already (an
+    application or pytest configured logging); undone at the end."""
+    root = logging.getLogger()
+    if root.handlers:
+        yield
+        return
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter(LOG_FORMAT))
+    root.addHandler(handler)
+    logging.captureWarnings(True)
+    try:
+        yield
+    finally:
+        logging.captureWarnings(False)
+        root.removeHandler(handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aiocram`` command; returns the exit code (2 for bad
     arguments, as argparse reports them, without raising ``SystemExit``)."""
@@ -173,7 +201,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     _import_pybullet_quietly()
     handler: Callable[[argparse.Namespace], int] = args.handler
-    return handler(args)
+    with _console_logging():
+        return handler(args)
 
 
 if __name__ == "__main__":

@@ -307,11 +307,15 @@ class RunAssessment:
         elif self.unstable:
             what = "unstable object"
         elif self.retries > MANY_RETRIES:
-            what = f"{self.retries} retries"
+            # the retries are the verdict: said once ("15 retries, cost 18.91")
+            return f"{self.retries} retries, cost {self._cost_text()}"
         else:
             what = "clean"
-        cost = "-" if self.cost is None else f"{self.cost:.2f}"
-        return f"{what}, cost {cost}, {self.retries} retries"
+        retries = "1 retry" if self.retries == 1 else f"{self.retries} retries"
+        return f"{what}, cost {self._cost_text()}, {retries}"
+
+    def _cost_text(self) -> str:
+        return "-" if self.cost is None else f"{self.cost:.2f}"
 
 
 def _object_poses(world: Any, names: Sequence[str]) -> dict[str, Pose]:
