@@ -18,6 +18,7 @@ Retries granted in imagination are not tallied in the caller's :func:`retry_ledg
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 import time
@@ -564,8 +565,11 @@ def watch_bases(
 def run_outcome(run: cpl.Task, failure: BaseException | None = None) -> str:
     """``"succeeded"`` or the failure class name: the failure that ended ``run``, else that
     of a failed ``delivering`` inside it (a transport that dropped its object at the sink
-    still returns), else ``"succeeded"``."""
+    still returns), else ``"succeeded"``; ``"interrupted"`` when the run was evaporated
+    or cancelled (e.g. Ctrl-C) rather than failed."""
     failure = failure if failure is not None else run.failure
+    if isinstance(failure, asyncio.CancelledError) or run.state is cpl.Status.EVAPORATED:
+        return "interrupted"
     if failure is not None:
         return type(failure).__name__
     failed = performed(run, "delivering", state=cpl.Status.FAILED)

@@ -216,6 +216,9 @@ def test_measure_fidelity_on_a_finished_task_tree():
     )
     disagreeing = measure_fidelity(chosen, real_run, None, ValueError("boom"))
     assert disagreeing.real == "ValueError" and not disagreeing.agrees
+    # a real run stopped by Ctrl-C (its task cancelled) was interrupted, not a failure
+    stopped = measure_fidelity(chosen, real_run, None, cpl.Evaporated("interrupted by Ctrl-C"))
+    assert stopped.real == "interrupted" and not stopped.agrees
 
 
 def test_the_demo_and_campaign_read_the_fidelity_from_the_tree():
