@@ -366,7 +366,7 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
         )
         real_sim, imagined = _transport_times(root, watch)
         if outputs is not None:
-            _write_pictures(outputs, true_world, camera, costmaps, engine_box)
+            _write_pictures(outputs, true_world, camera, costmaps, engine_box, interrupts)
             route.write(true_world, foresight_records(root), outputs.path("floor_plan.png"))
         report = DemoReport(
             config,
@@ -465,7 +465,12 @@ def _route_plan_logs(path: Path | None) -> Callable[[], None]:
 
 
 def _write_pictures(
-    outputs: Any, true_world: Any, camera: Any, costmaps: Any, engine_box: list[Any]
+    outputs: Any,
+    true_world: Any,
+    camera: Any,
+    costmaps: Any,
+    engine_box: list[Any],
+    interrupts: Any = None,
 ) -> None:
     """The final scene (true world), the head camera at the last detection, and the
     costmaps the real run navigated by (see :mod:`aiocram._figures`). A picture that
@@ -477,7 +482,8 @@ def _write_pictures(
     # same pictures in about half the wall time on two cores)
     child = None
     if engine is not None and len(costmaps.uses) > 1:
-        child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)))
+        adopt = interrupts.adopt if interrupts is not None else None
+        child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)), adopt)
     try:
         try:
             render.scene(true_world, outputs.path("final_scene.png"))
@@ -489,6 +495,8 @@ def _write_pictures(
     finally:
         if child is not None:
             _, status = os.waitpid(child, 0)
+            if interrupts is not None:
+                interrupts.release(child)
             if status != 0:
                 print(
                     f"(some costmap pictures not drawn: their process ended with {status})",
@@ -496,12 +504,16 @@ def _write_pictures(
                 )
 
 
-def _fork(work: Callable[[], Any]) -> int | None:
+def _fork(work: Callable[[], Any], adopt: Callable[[int], None] | None = None) -> int | None:
     """Run ``work`` in a forked child that ends with ``os._exit`` (none of this process's
     cleanup runs there) and ignores Ctrl-C (the parent waits for it); the child's pid, or
     None where there is no fork or other threads run (``work`` is then left to the
-    caller)."""
+    caller). ``adopt(pid)`` is called in the parent before a Ctrl-C can be handled (SIGINT
+    is blocked around the fork), so an abort by a second Ctrl-C can kill the child
+    (:meth:`aiocram._interrupt.Interrupts.adopt`) rather than leave it writing after the
+    command ended."""
     import logging
+    import signal
     import threading
 
     if not hasattr(os, "fork") or threading.active_count() > 1:
@@ -512,17 +524,23 @@ def _fork(work: Callable[[], Any]) -> int | None:
     for name in ("plans", "executive", "projection", "cpl"):
         for handler in logging.getLogger(name).handlers:
             handler.flush()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         pid = os.fork()
     except OSError:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         return None
     if pid:
+        try:
+            if adopt is not None:
+                adopt(pid)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a pending Ctrl-C runs now
         return pid
     code = 1
     try:
-        import signal
-
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         work()
         code = 0
     except BaseException:
