@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import logging
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -71,9 +72,28 @@ def _add_show(subparsers: _Subparsers) -> None:
     p.add_argument(
         "--collapse",
         action="store_true",
-        help="fold subtrees that finished without failing into one line",
+        help="the compact tree the demo prints: one line per top-level step, its "
+        "failures folded by name with a count and the last failure (--max-nodes: not used)",
     )
     p.set_defaults(handler=_run_show)
+
+
+class _AsciiBuffer(io.StringIO):
+    """A text buffer that says it holds ASCII, so rich draws tree guides in ASCII."""
+
+    encoding = "ascii"  # type: ignore[assignment]
+
+
+def _ascii_text(renderable: Any, width: int) -> str:
+    from rich.console import Console
+
+    buffer = _AsciiBuffer()
+    Console(file=buffer, width=width, color_system=None, highlight=False).print(renderable)
+    return buffer.getvalue().translate(_TO_ASCII)
+
+
+#: one character for one, so that the lines keep their width
+_TO_ASCII = str.maketrans({"—": "-", "×": "x", "…": "~", "→": ">", "✔": "+", "✘": "x"})
 
 
 def _run_show(args: argparse.Namespace) -> int:
@@ -92,7 +112,14 @@ def _run_show(args: argparse.Namespace) -> int:
         print(f"aiocram show: error: cannot read {args.log}: {exc}", file=sys.stderr)
         return 2
     console = Console(highlight=False)
-    if args.ascii:
+    if args.collapse:  # the compact tree the demo prints at its end
+        from aiocram._views import final_tree
+
+        if args.ascii:
+            sys.stdout.write(_ascii_text(final_tree(tree, ascii=True), console.width))
+        else:
+            console.print(final_tree(tree))
+    elif args.ascii:
         text = render_text(
             tree,
             ascii=True,

@@ -682,7 +682,7 @@ def _print_report(report: DemoReport, console: Any) -> None:
         console.print(final_tree(report.root))
         if log is not None:
             console.print(
-                f"the whole tree: aiocram show --collapse {log}",
+                f"the whole tree: aiocram show {log}",
                 soft_wrap=True,
                 markup=False,
                 highlight=False,

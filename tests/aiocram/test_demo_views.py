@@ -123,7 +123,7 @@ def test_final_tree_has_a_finished_root_and_folded_failures():
     first = text.splitlines()[0]
     assert first.startswith("✔ demo") and "running" not in text
     assert "perception ×5" in text
-    assert "aiocram show --collapse out/demo/log.jsonl" in text
+    assert "the whole tree: aiocram show out/demo/log.jsonl" in text
     _check("final_tree_80.txt", text)
 
 
