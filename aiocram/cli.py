@@ -81,7 +81,7 @@ def _add_show(subparsers: _Subparsers) -> None:
 class _AsciiBuffer(io.StringIO):
     """A text buffer that says it holds ASCII, so rich draws tree guides in ASCII."""
 
-    encoding = "ascii"  # type: ignore[assignment]
+    encoding = "ascii"
 
 
 def _ascii_text(renderable: Any, width: int) -> str:
