@@ -291,11 +291,13 @@ def connect(scheduler: str, timeout: float = SCHEDULER_TIMEOUT_S) -> Any:
         ) from None
     try:
         return Client(scheduler, timeout=timeout)
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+    except Exception as exc:  # refused, timed out, a bad address, not dask's protocol
+        text = str(exc).splitlines()[0] if str(exc) else ""
         raise SchedulerError(
             f"--scheduler {scheduler}: no dask scheduler answered within {timeout:.0f} s "
-            f"({type(exc).__name__}: {exc}); start one (dask scheduler) and give its address, "
-            "e.g. tcp://host:8786, or leave --scheduler out for a cluster on this machine"
+            f"({type(exc).__name__}: {text[:200]}); start one (dask scheduler) and give its "
+            "address, e.g. tcp://host:8786, or leave --scheduler out for a cluster on this "
+            "machine"
         ) from None
 
 

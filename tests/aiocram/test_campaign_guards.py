@@ -228,3 +228,18 @@ def test_a_full_disk_keeps_every_run_and_says_what_to_free(tmp_path):
     assert "stopped after 3 of 5 runs" in proc.stderr
     assert "keeps the 2 runs written before" in proc.stderr
     assert f"Free space on the file system of {out}" in proc.stderr
+
+
+def test_help_describes_the_command_and_every_flag():
+    from aiocram.cli import build_parser
+
+    parser = build_parser()
+    (sub,) = [a for a in parser._actions if a.dest == "command"]
+    campaign = sub.choices["campaign"]  # type: ignore[index]
+    assert "Exit status" in (campaign.description or "")
+    undocumented = [
+        a.option_strings[0]
+        for a in campaign._actions
+        if a.option_strings and a.help != "==SUPPRESS==" and not (a.help or "").strip()
+    ]
+    assert undocumented == []
