@@ -104,3 +104,14 @@ def test_an_empty_out_is_refused_before_anything_is_written(tmp_path, monkeypatc
     assert main(["demo", "--no-live", "--out", ""]) == 2
     assert "--out" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_fault_kind_given_twice_is_refused(tmp_path, capsys):
+    out = tmp_path / "demo"
+    code = main(
+        ["demo", "--no-live", "--faults", "navigation=0.1,navigation=0.2", "--out", str(out)]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--faults" in err and "navigation given more than once" in err
+    assert not out.exists()
