@@ -531,6 +531,8 @@ _CRASHED = {"claimed": False, "delivered": False, "where": "crashed run"}
 
 
 def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
+    if not summary["rows"]:
+        return []  # no run finished: no curve to draw
     import matplotlib
 
     matplotlib.use("Agg")
@@ -915,6 +917,17 @@ def _command(args: argparse.Namespace) -> int:
     summary["runs_planned"] = len(jobs)
     summary["partial"] = interrupted or runs.error is not None
     failure: OSError | None = runs.error
+    if staged is not None and not results:
+        # interrupted before any run ended: nothing to replace the previous campaign with
+        import shutil
+
+        shutil.rmtree(staged.staging, ignore_errors=True)
+        _print_summary(summary)
+        print(
+            f"aiocram campaign: no run finished; the previous campaign in {out} is left as it was",
+            file=sys.stderr,
+        )
+        return 130
     written: list[Path] = []
     try:
         _write_json(where / "campaign.json", {"summary": summary, "runs": results})

@@ -247,3 +247,23 @@ def test_help_describes_the_command_and_every_flag():
         if a.option_strings and a.help != "==SUPPRESS==" and not (a.help or "").strip()
     ]
     assert undocumented == []
+
+
+def test_overwrite_stopped_before_any_run_ended_leaves_the_previous_campaign(
+    tmp_path, capsys, monkeypatch
+):
+    """Ctrl-C two seconds into a campaign started with --overwrite: nothing to replace
+    the previous campaign with, so it stays."""
+    import aiocram.demo
+
+    out = tmp_path / "c"
+    before = _previous(out)
+
+    def run(**kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(aiocram.demo, "run_demo_once", run)
+    assert main([*BASE, "--out", str(out), "--overwrite"]) == 130
+    assert "the previous campaign in" in capsys.readouterr().err
+    assert _contents(out) == before
+    assert not list(out.glob(".partial-*"))
