@@ -4,8 +4,9 @@ The first SIGINT prints ``interrupted, cleaning up (Ctrl-C again to abort)``, sw
 run's clock to full speed (the shielded cleanup, e.g. parking the arms, must not take
 minutes of wall time at ``--speed 1``) and evaporates the plan's root task from the event
 loop; the plan's ``finally`` blocks then run as after any evaporation, and the command
-goes on to write its pictures and summary. The second SIGINT calls ``on_abort`` (which
-saves what can be saved with plain renames) and leaves at once with status 130
+goes on to write its pictures and summary. The second SIGINT kills the helper processes
+the run forked (:meth:`Interrupts.adopt`), calls ``on_abort`` (which saves what can be
+saved with plain renames) and leaves at once with status 130
 (``os._exit``: no traceback, no waiting for tasks).
 
 asyncio's own ``Runner`` installs a SIGINT handler that cancels the main task and then
@@ -44,6 +45,10 @@ class Interrupts:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._root: Any = None
         self._saved: Any = None
+        #: forked helper processes (e.g. the demo's picture worker) that an abort kills
+        #: before ``on_abort`` runs, so that none outlives the command (invariant: pids of
+        #: children of this process not yet waited for)
+        self._children: set[int] = set()
 
     @property
     def interrupted(self) -> bool:
@@ -69,6 +74,25 @@ class Interrupts:
         if self.interrupted:
             self._evaporate()
 
+    def adopt(self, pid: int) -> None:
+        """Kill the child process ``pid`` (SIGKILL, then reap it) if the run is aborted
+        before :meth:`release`; e.g. a helper that writes into a staging directory that
+        the abort is about to move or remove."""
+        self._children.add(pid)
+
+    def release(self, pid: int) -> None:
+        """The child ``pid`` was waited for: an abort leaves it alone."""
+        self._children.discard(pid)
+
+    def _kill_children(self) -> None:
+        for pid in sorted(self._children):
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except (ProcessLookupError, ChildProcessError):
+                pass  # gone already
+        self._children.clear()
+
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         self.count += 1
         if self.count == 1:
@@ -84,6 +108,7 @@ class Interrupts:
             sys.stdout.write("\x1b[?25h\n")  # a live view hid the cursor: show it again
         print("aborted", file=sys.stderr, flush=True)
         try:
+            self._kill_children()
             self.on_abort()
         finally:
             sys.stdout.flush()

@@ -15,7 +15,20 @@ import shutil
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["OutputError", "Outputs", "check_out_dir"]
+__all__ = ["OutputError", "Outputs", "check_out_dir", "out_dir_arg"]
+
+
+def out_dir_arg(text: str) -> Path:
+    """The argparse type of an output-directory flag: the path, or a usage error for an
+    empty one (``--out ""`` would otherwise write into the current directory)."""
+    import argparse
+
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            f"needs a directory name, got {text!r} (give '.' for the current directory "
+            "if that is really meant)"
+        )
+    return Path(text)
 
 
 class OutputError(ValueError):

@@ -42,11 +42,46 @@ def imagined(task: Any) -> bool:
     return any(p.startswith(_IMAGINED) for p in task.path)
 
 
+#: In a recorded tree (:class:`cpl.TaskNode`) the designator is its text:
+#: ``<an action (type detecting) (object <an object (type spoon) (name spoon-1)>) ...``
+_ACTION_TYPE = re.compile(r"^<an? action \(type ([^()\s]+)\)")
+_ACTION_OBJECT = re.compile(r"\(object <an? object ((?:\([^()]*\)\s*)*)")
+_PROPERTY = re.compile(r"\((name|type) ([^()\s]+)\)")
+
+
+def _recorded_brief(node: cpl.TaskNode) -> str:
+    text = str((node.annotations or {}).get("designator", ""))
+    action = _ACTION_TYPE.match(text)
+    if action is None:
+        return ""
+    words = [action.group(1)]
+    obj = _ACTION_OBJECT.search(text)
+    if obj is not None:
+        props = dict(_PROPERTY.findall(obj.group(1)))
+        name = props.get("name") or props.get("type")
+        if name is not None:
+            words.append(name)
+    return " ".join(words)
+
+
+def _state(task: Any) -> cpl.Status:
+    """A live task's state, or a recorded one's (:class:`cpl.TaskNode`) status."""
+    return task.status if isinstance(task, cpl.TaskNode) else task.state
+
+
+def _entry(task: Any) -> str:
+    """The last part of the task's path (``name`` or ``name#n``)."""
+    return task.path[-1] if isinstance(task, cpl.TaskNode) else task.path_entry
+
+
 def brief(task: Any) -> str:
     """A few words on what ``task`` does: its action type and the object it is about
-    (``detecting spoon-1``), or ``""`` for tasks that are not performed actions."""
+    (``detecting spoon-1``), or ``""`` for tasks that are not performed actions. Also
+    for a recorded task (:class:`cpl.TaskNode`), from its designator's text."""
     from executive import action_of
 
+    if isinstance(task, cpl.TaskNode):
+        return _recorded_brief(task)
     action = action_of(task)
     if action is None:
         return ""
@@ -68,23 +103,35 @@ def _walk(task: Any) -> Iterator[Any]:
 
 
 def _base(task: Any) -> str:
-    return _NUMBERED.sub("", task.path_entry)
+    return _NUMBERED.sub("", _entry(task))
 
 
-def _failure_text(failure: BaseException | None, limit: int) -> str:
+def _failure_text(failure: BaseException | cpl.FailureInfo | None, limit: int) -> str:
     if failure is None:
         return ""
-    text = f"{type(failure).__name__}: {failure}".replace("\n", " ")
+    if isinstance(failure, cpl.FailureInfo):  # recorded: as the failure's str() reads
+        name = failure.type.rsplit(".", 1)[-1]
+        fields = ", ".join(f"{k}={v}" for k, v in failure.details.items())
+        message = f"{failure.message} ({fields})" if fields else failure.message
+        text = f"{name}: {message}" if message else name
+    else:
+        text = f"{type(failure).__name__}: {failure}"
+    text = text.replace("\n", " ")
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
-def fold_failures(tasks: Any) -> list[tuple[str, int, BaseException | None]]:
+def _count(n: int, noun: str) -> str:
+    """``"1 failed task"``, ``"2 failed tasks"``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+def fold_failures(tasks: Any) -> list[tuple[str, int, Any]]:
     """Failed tasks (imagined ones left out) folded by name without its ``#N``: ``(name,
     count, last failure)``, most frequent first."""
     counts: Counter[str] = Counter()
-    last: dict[str, BaseException | None] = {}
+    last: dict[str, Any] = {}
     for t in tasks:
-        if t.state is cpl.Status.FAILED and not imagined(t):
+        if _state(t) is cpl.Status.FAILED and not imagined(t):
             name = _base(t)
             counts[name] += 1
             last[name] = t.failure
@@ -128,12 +175,12 @@ class Progress(cpl.Instrument):
         return text
 
 
-def _line(task: Any, *, extra: str = "") -> Text:
-    look = STATUS_STYLES[task.state]
+def _line(task: Any, *, extra: str = "", ascii: bool = False) -> Text:
+    look = STATUS_STYLES[_state(task)]
     text = Text(no_wrap=True, overflow="ellipsis")
-    text.append(look.glyph, style=look.style)
+    text.append(look.ascii if ascii else look.glyph, style=look.style)
     text.append(" ")
-    text.append(task.path_entry, style="bold" if task.kind == "top-level" else "")
+    text.append(_entry(task), style="bold" if task.kind == "top-level" else "")
     what = brief(task)
     if what:
         text.append(f" {what}", style="cyan")
@@ -190,27 +237,37 @@ class DemoView(LiveTaskTree):
         return Group(*parts)
 
 
+def _evaporation_reason(task: Any) -> str | None:
+    if isinstance(task, cpl.TaskNode):
+        return task.evaporation_reason if task.evaporated else None
+    return None if task.evaporation is None else task.evaporation.reason
+
+
 def final_tree(root: Any, *, log: str | None = None, ascii: bool = False) -> RenderableType:
     """The collapsed tree of a finished run: the root, one line per top-level step (the
     steps that finished without failing before the first transport folded into one line),
     and under each step its failures folded by name with a count and the last failure.
-    With ``log``, a last line points to ``aiocram show --collapse LOG``."""
-    look = STATUS_STYLES[root.state]
+    With ``log``, a last line points to the whole tree (``aiocram show LOG``).
+
+    ``root`` is the live root task or a recorded one (:class:`cpl.TaskNode`, e.g. from
+    :func:`cpl.tree_from_log`): ``aiocram show --collapse`` prints this same tree."""
+    look = STATUS_STYLES[_state(root)]
     label = Text()
     label.append(look.ascii if ascii else look.glyph, style=look.style)
-    label.append(f" {root.path_entry} [top-level]", style="bold")
+    label.append(f" {_entry(root)} [top-level]", style="bold")
     if root.end_time is not None and root.start_time is not None:
         label.append(f" {format_duration(root.end_time - root.start_time)}", style="dim cyan")
     if root.failure is not None:
         label.append(f" — {_failure_text(root.failure, 80)}", style="red")
-    if root.evaporation is not None:
-        label.append(f" — evaporated: {root.evaporation.reason}", style="grey50")
+    reason = _evaporation_reason(root)
+    if reason is not None:
+        label.append(f" — evaporated: {reason}", style="grey50")
     tree = Tree(label, guide_style="dim")
     quiet = 0
     for child in root.children:
         folded = fold_failures(_walk(child))
         interesting = bool(folded) or brief(child).startswith("transporting")
-        if not interesting and child.state is cpl.Status.SUCCEEDED:
+        if not interesting and _state(child) is cpl.Status.SUCCEEDED:
             quiet += 1
             continue
         if quiet:
@@ -220,8 +277,8 @@ def final_tree(root: Any, *, log: str | None = None, ascii: bool = False) -> Ren
         if child.end_time is not None and child.start_time is not None:
             duration = f" {format_duration(child.end_time - child.start_time)}"
         failed = sum(n for _, n, _ in folded)
-        extra = duration + (f" — {failed} failed tasks" if failed else "")
-        branch = tree.add(_line(child, extra=extra))
+        extra = duration + (f" — {_count(failed, 'failed task')}" if failed else "")
+        branch = tree.add(_line(child, extra=extra, ascii=ascii))
         if child.failure is not None:
             branch.add(Text(_failure_text(child.failure, 100), style="red"))
         for name, n, last in folded[:5]:
@@ -236,5 +293,5 @@ def final_tree(root: Any, *, log: str | None = None, ascii: bool = False) -> Ren
         tree.add(Text(f"(+{quiet} finished)", style="dim"))
     if log is None:
         return tree
-    hint = Text(f"the whole tree: aiocram show --collapse {log}", style="dim")
+    hint = Text(f"the whole tree: aiocram show {log}", style="dim")
     return Group(tree, hint)

@@ -15,14 +15,25 @@ retries by kind, base distance, time, and the invariants that must hold in every
 
 The harness keeps every finished run: each run's record is appended to ``OUT/runs.jsonl``
 as it ends; a local worker that dies (killed, crashed) is recorded as an ``error`` run of
-its job, replaced, and the campaign goes on; Ctrl-C stops the workers, writes the partial
-summary (``"partial": true``) and says so. All arguments are checked before any job starts
-or any file is written. The summary goes to ``OUT/campaign.json`` with PNG plots, and to
-the console as a table that fits 80 columns (the retries are in the JSON).
+its job, replaced, and the campaign goes on (a crashed run's objects count as not
+delivered: they stay in the denominator, and the table counts the crashed runs); Ctrl-C
+stops the workers, writes the partial summary (``"partial": true``) and says so. A write
+that fails (disk full) stops the campaign: no further run starts, the runs in flight
+finish, ``runs.jsonl`` keeps every complete record, the records it could not take are
+printed on stdout and the message says what to free.
+
+All arguments are checked before any job starts or any file is written, the dask
+scheduler of ``--scheduler`` included (it must answer within
+:data:`SCHEDULER_TIMEOUT_S`). An ``--out`` that holds a campaign already is refused;
+with ``--overwrite`` the new campaign is written beside it (a staging directory inside
+``--out``) and replaces it when it ends. The summary goes to ``OUT/campaign.json`` with
+PNG plots, and to the console as a table that fits 80 columns (the retries are in the
+JSON).
 
 Exit status: 0 when every invariant held in every run, 1 when some run violated one (the
 violations are in the report), 2 for bad arguments, 3 when the harness itself failed in
-some run (a crash or a dead worker), 130 when interrupted.
+some run (a crash or a dead worker), 4 when the results could not all be written, 130
+when interrupted.
 """
 
 from __future__ import annotations
@@ -88,6 +99,7 @@ def run_job(job: Job) -> dict[str, Any]:
             "projection": job.projection,
             "error": f"{type(exc).__name__}: {exc}",
             "objects": {},
+            "planned": list(job.objects),
             "invariants": {},
         }
     result["wall_time_s"] = time.perf_counter() - t0
@@ -178,21 +190,34 @@ def _died(job: Job, exitcode: int | None, wall: float) -> dict[str, Any]:
         "projection": job.projection,
         "error": f"WorkerDied: the worker process running this job was {how}",
         "objects": {},
+        "planned": list(job.objects),  # they count as not delivered
         "invariants": {},
         "wall_time_s": wall,
     }
 
 
-def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], None]) -> None:
+def _never() -> bool:
+    return False
+
+
+def _run_local(
+    jobs: list[Job],
+    workers: int,
+    done: Callable[[dict[str, Any]], None],
+    stop: Callable[[], bool] = _never,
+) -> None:
     """Run ``jobs`` on ``workers`` worker processes (in this process when ``workers`` <= 1),
     calling ``done(record)`` as each ends. A worker that dies (killed, segfault) is
-    recorded as an ``error`` run of its job and replaced; the other jobs go on. On
-    KeyboardInterrupt the workers are killed and the interrupt propagates."""
+    recorded as an ``error`` run of its job and replaced; the other jobs go on. Once
+    ``stop()`` is true no further job starts; the runs in flight finish and are reported.
+    On KeyboardInterrupt the workers are killed and the interrupt propagates."""
     if workers <= 1:
         from aiocram.demo import frozen_imports
 
         with frozen_imports():
             for job in jobs:
+                if stop():
+                    return
                 done(run_job(job))
         return
     import multiprocessing
@@ -204,6 +229,8 @@ def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], N
     try:
         pool = [_Worker(ctx) for _ in range(min(workers, len(jobs)))]
         while True:
+            if stop():
+                queue.clear()  # the runs in flight finish; no other starts
             for i, w in enumerate(pool):
                 while w.job is None and queue:
                     job = queue.pop()
@@ -244,27 +271,68 @@ def _run_local(jobs: list[Job], workers: int, done: Callable[[dict[str, Any]], N
             w.stop(kill=w.job is not None)
 
 
+#: Seconds a ``--scheduler`` has to answer before the campaign gives up on it.
+SCHEDULER_TIMEOUT_S = 5.0
+
+
+class SchedulerError(ValueError):
+    """The dask backend cannot be used: dask.distributed is missing, or the scheduler at
+    ``--scheduler`` does not answer (the message says what to do)."""
+
+
+def connect(scheduler: str, timeout: float = SCHEDULER_TIMEOUT_S) -> Any:
+    """A ``dask.distributed.Client`` of the scheduler at ``scheduler``, or
+    :class:`SchedulerError` within about ``timeout`` seconds."""
+    try:
+        from dask.distributed import Client
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise SchedulerError(
+            "--backend dask needs dask.distributed: pip install 'aiocram[dask]'"
+        ) from None
+    try:
+        return Client(scheduler, timeout=timeout)
+    except Exception as exc:  # refused, timed out, a bad address, not dask's protocol
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        raise SchedulerError(
+            f"--scheduler {scheduler}: no dask scheduler answered within {timeout:.0f} s "
+            f"({type(exc).__name__}: {text[:200]}); start one (dask scheduler) and give its "
+            "address, e.g. tcp://host:8786, or leave --scheduler out for a cluster on this "
+            "machine"
+        ) from None
+
+
 def _run_dask(
-    jobs: list[Job], workers: int, scheduler: str | None, done: Callable[[dict[str, Any]], None]
+    jobs: list[Job],
+    workers: int,
+    scheduler: str | None,
+    done: Callable[[dict[str, Any]], None],
+    stop: Callable[[], bool] = _never,
+    client: Any = None,
 ) -> None:
+    """Run ``jobs`` on a dask cluster: ``client`` (closed at the end), else the scheduler
+    at ``scheduler``, else a ``LocalCluster`` of ``workers`` processes. Once ``stop()`` is
+    true the jobs not finished are cancelled (on dask the runs in flight are dropped too)."""
     try:
         from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise SystemExit(
-            "the dask backend needs dask.distributed: pip install 'aiocram[dask]'"
-        ) from exc
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise SchedulerError(
+            "--backend dask needs dask.distributed: pip install 'aiocram[dask]'"
+        ) from None
     cluster = None
-    if scheduler is None:
+    if client is None and scheduler is None:
         cluster = LocalCluster(
             n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
         )
         client = Client(cluster)
-    else:
-        client = Client(scheduler)
+    elif client is None:
+        client = connect(scheduler)  # type: ignore[arg-type]  # not None here
     try:
         futures = client.map(run_job, jobs, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         for fut in as_completed(futures):
+            if stop():
+                client.cancel([f for f in futures if not f.done()])
+                return
             try:
                 done(fut.result())
             except Exception as exc:  # a worker died (KilledWorker) or the cluster failed
@@ -276,6 +344,7 @@ def _run_dask(
                         "projection": job.projection,
                         "error": f"{type(exc).__name__}: {exc}",
                         "objects": {},
+                        "planned": list(job.objects),
                         "invariants": {},
                         "wall_time_s": 0.0,
                     }
@@ -318,11 +387,18 @@ def plan_campaign(
     ValueError naming what to fix."""
     if seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {seeds}")
+    if first_seed < 0:
+        raise ValueError(
+            f"--first-seed must be a whole number >= 0 (a demo seed), got {first_seed}"
+        )
     bad = [f for f in faults if math.isnan(f) or not (0.0 <= f <= 1.0)]
     if bad:
         raise ValueError(f"fault rates are probabilities in [0, 1], got {bad}")
     if not faults:
         raise ValueError("--faults needs at least one rate, e.g. 0,0.1")
+    repeated = sorted({f for f in faults if list(faults).count(f) > 1})
+    if repeated:
+        raise ValueError(f"--faults: {', '.join(f'{f:g}' for f in repeated)} given more than once")
     if backend not in ("local", "dask"):
         raise ValueError(f"unknown backend {backend!r}: use 'local' or 'dask'")
     return _jobs(seeds, faults, projection_modes, first_seed, check_objects(objects))
@@ -341,12 +417,16 @@ def run_campaign(
     progress: Callable[[int, int], None] | None = None,
     on_result: Callable[[dict[str, Any]], None] | None = None,
     results: list[dict[str, Any]] | None = None,
+    stop: Callable[[], bool] = _never,
+    client: Any = None,
 ) -> list[dict[str, Any]]:
     """Run every (seed, fault rate, projection mode) job and return the raw results, in
     the order they ended. ``on_result(record)`` is called as each run ends (the command
     appends it to ``runs.jsonl``); ``results``, if given, is the list they are appended
-    to, so a caller interrupted by Ctrl-C still holds every finished run. Arguments are
-    all checked before any job starts (ValueError)."""
+    to, so a caller interrupted by Ctrl-C still holds every finished run. Once ``stop()``
+    is true no further job starts (the command stops so when it cannot write). ``client``:
+    a connected ``dask.distributed.Client`` for the dask backend (see :func:`connect`).
+    Arguments are all checked before any job starts (ValueError)."""
     jobs = plan_campaign(
         seeds=seeds,
         faults=faults,
@@ -365,9 +445,9 @@ def run_campaign(
         report(len(out), len(jobs))
 
     if backend == "local":
-        _run_local(jobs, workers, done)
+        _run_local(jobs, workers, done, stop)
     else:
-        _run_dask(jobs, workers, scheduler, done)
+        _run_dask(jobs, workers, scheduler, done, stop, client)
     return out
 
 
@@ -382,6 +462,15 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
     rows = []
     for (proj, rate), runs in sorted(groups.items()):
         objects = [o for r in runs for o in r.get("objects", {}).values()]
+        # a crashed run's objects were not delivered: they stay in the denominator
+        # (records without "planned", from before it was kept, count as many objects as
+        # the group's other runs)
+        usual = max((len(r.get("objects", {})) for r in runs if "error" not in r), default=5)
+        crashed = [r for r in runs if "error" in r]
+        for r in crashed:
+            planned = r.get("planned")
+            n = len(planned) if planned is not None else usual
+            objects += [dict(_CRASHED) for _ in range(n - len(r.get("objects", {})))]
         delivered = sum(1 for o in objects if o.get("delivered"))
         claimed = sum(1 for o in objects if o.get("claimed"))
         phantoms = sum(1 for o in objects if o.get("claimed") and not o.get("delivered"))
@@ -415,6 +504,7 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 "projection": proj,
                 "fault_rate": rate,
                 "runs": len(runs),
+                "runs_crashed": len(crashed),
                 "objects": total,
                 "delivered": delivered,
                 "claimed": claimed,
@@ -436,7 +526,13 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return {"rows": rows}
 
 
+#: What a crashed run's object counts as in the summary.
+_CRASHED = {"claimed": False, "delivered": False, "where": "crashed run"}
+
+
 def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
+    if not summary["rows"]:
+        return []  # no run finished: no curve to draw
     import matplotlib
 
     matplotlib.use("Agg")
@@ -473,7 +569,8 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
 
 def summary_table(summary: dict[str, Any]) -> Any:
     """The summary as a rich table that fits 80 columns (retries and violation details
-    are in ``campaign.json``)."""
+    are in ``campaign.json``). ``crash``: runs the harness lost (their objects count
+    as not delivered); ``bad runs``: runs that violated an invariant or crashed."""
     from rich import box
     from rich.table import Table
 
@@ -482,6 +579,8 @@ def summary_table(summary: dict[str, Any]) -> Any:
         box=box.SIMPLE_HEAD,
         padding=(0, 1),
         collapse_padding=True,
+        show_edge=False,
+        pad_edge=False,
     )
     for col, justify in (
         ("proj", "left"),
@@ -492,6 +591,7 @@ def summary_table(summary: dict[str, Any]) -> Any:
         ("phantoms", "right"),
         ("dist m", "right"),
         ("sim s", "right"),
+        ("crash", "right"),
         ("bad runs", "right"),
     ):
         table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
@@ -505,6 +605,7 @@ def summary_table(summary: dict[str, Any]) -> Any:
             str(r.get("phantoms", 0)),
             f"{r['mean_distance_m']:.2f}",
             f"{r['mean_sim_time_s']:.0f}",
+            str(r.get("runs_crashed", 0)),
             str(r.get("runs_violating", len(r["invariant_violations"]))),
         )
     return table
@@ -527,20 +628,71 @@ def _print_summary(summary: dict[str, Any]) -> None:
         )
 
 
+def _rates(text: str) -> list[float]:
+    """The argparse type of ``--faults``: comma-separated probabilities, each once."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        rates = [float(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"takes fault rates separated by commas, like 0,0.05,0.1, got {text!r}"
+        ) from None
+    bad = [p for p, f in zip(parts, rates, strict=True) if not 0.0 <= f <= 1.0]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"a fault rate is a probability from 0 to 1, got {', '.join(bad)}"
+        )
+    repeated = sorted({f for f in rates if rates.count(f) > 1})
+    if repeated:
+        raise argparse.ArgumentTypeError(
+            f"{', '.join(f'{f:g}' for f in repeated)} given more than once in {text!r}"
+        )
+    return rates
+
+
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("campaign", help="run the robustness campaign")
-    p.add_argument("--seeds", type=int, default=20, help="seeds per fault rate (default 20)")
-    p.add_argument("--first-seed", type=int, default=1)
+    from aiocram._help import HelpFormatter
+    from aiocram._outputs import out_dir_arg
+    from aiocram.demo import DEFAULT_OBJECTS, _whole
+
+    p = subparsers.add_parser(
+        "campaign",
+        help="run the robustness campaign",
+        description=(
+            "Run the table-setting demo headless for every seed and fault rate, with and "
+            "without projection reasoning, and measure each run on the true world. Each "
+            "run's record is appended to OUT/runs.jsonl as it ends; the summary goes to "
+            "OUT/campaign.json, two plots and the console. Every flag is checked before a "
+            "run starts or a file is written. An --out that holds a campaign already is "
+            "refused unless --overwrite is given (the previous files then stay until the "
+            "new campaign ends). Exit status: 0 every invariant held, 1 some run violated "
+            "one, 2 bad arguments, 3 a run crashed in the harness, 4 the results could not "
+            "all be written (the message says what to free), 130 interrupted (Ctrl-C)."
+        ),
+        formatter_class=HelpFormatter,
+    )
+    p.add_argument(
+        "--seeds", type=_whole(1), default=20, help="seeds per fault rate and mode (>= 1)"
+    )
+    p.add_argument(
+        "--first-seed",
+        type=_whole(0),
+        default=1,
+        help="the first seed; the runs use FIRST .. FIRST+SEEDS-1 (>= 0)",
+    )
     p.add_argument(
         "--objects",
         nargs="+",
         default=list(Job.objects),
-        help="objects to set in every run (default: all five)",
+        metavar="OBJECT",
+        help=f"objects to set in every run, each once; any of: {' '.join(DEFAULT_OBJECTS)}",
     )
     p.add_argument(
         "--faults",
+        type=_rates,
         default="0,0.05,0.1,0.2",
-        help="comma-separated uniform fault rates (default 0,0.05,0.1,0.2)",
+        metavar="RATES",
+        help="uniform fault rates to run, comma-separated, each once",
     )
     p.add_argument(
         "--no-projection",
@@ -548,10 +700,38 @@ def add_parser(subparsers: Any) -> None:
         help="only run without projection reasoning (default: both modes)",
     )
     p.add_argument("--only-projection", action="store_true", help=argparse.SUPPRESS)
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
-    p.add_argument("--backend", choices=("local", "dask"), default="local")
-    p.add_argument("--scheduler", help="dask scheduler address (default: a LocalCluster)")
-    p.add_argument("--out", default="out/campaign", help="output directory")
+    p.add_argument(
+        "--workers",
+        type=_whole(1),
+        default=os.cpu_count() or 1,
+        help="runs at the same time (local: worker processes; dask: LocalCluster workers)",
+    )
+    p.add_argument(
+        "--backend",
+        choices=("local", "dask"),
+        default="local",
+        help="where the runs go: worker processes here, or a dask.distributed cluster",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="with --backend dask: the scheduler to use, e.g. tcp://host:8786 (default: a "
+        f"LocalCluster); one that does not answer within {SCHEDULER_TIMEOUT_S:.0f} s is an "
+        "error",
+    )
+    p.add_argument(
+        "--out",
+        type=out_dir_arg,
+        default="out/campaign",
+        metavar="DIR",
+        help="directory for runs.jsonl, campaign.json and the plots",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the campaign already in --out when this one ends (interrupted or "
+        "not); without it such an --out is refused",
+    )
     p.set_defaults(handler=_command)
 
 
@@ -576,25 +756,85 @@ def _own_sigint() -> Callable[[], None]:
     return restore
 
 
+EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_HARNESS, EXIT_NOT_WRITTEN = 0, 1, 2, 3, 4
+
+#: The files a campaign writes into its --out; a directory holding one of them holds a
+#: campaign, which a new one never wipes unasked.
+CAMPAIGN_FILES = ("runs.jsonl", "campaign.json", "success_rate.png", "distance.png")
+
+
+class _RunsFile:
+    """``runs.jsonl``, one whole record per line, written as each run ends.
+
+    A write that fails (disk full, quota, an I/O error) is cut back off, so the file
+    holds complete records only; from then on nothing more is written and ``error`` says
+    why (the command stops starting runs and keeps the rest in memory)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
+        self.written = 0  # invariant: the complete records in the file, and nothing else
+        self.error: OSError | None = None  # the first failed write; then none is tried
+
+    def append(self, record: dict[str, Any]) -> bool:
+        """Write ``record``; False if it is not on disk (now or since an earlier error)."""
+        if self.error is not None:
+            return False
+        data = (json.dumps(record) + "\n").encode()
+        start = os.lseek(self._fd, 0, os.SEEK_END)
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._fd, view) :]
+        except OSError as exc:
+            self.error = exc
+            try:  # no half record: a reader of the file must not stumble on it
+                os.ftruncate(self._fd, start)
+            except OSError:  # pragma: no cover - ftruncate needs no space
+                pass
+            return False
+        self.written += 1
+        return True
+
+    def close(self) -> None:
+        os.close(self._fd)
+
+
+def _previous_campaign(out: Path) -> list[str]:
+    """The campaign files in ``out`` (none when it does not exist)."""
+    return [name for name in CAMPAIGN_FILES if (out / name).exists()]
+
+
+def _usage(message: str) -> int:
+    print(f"aiocram campaign: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _write_json(path: Path, data: Any) -> None:
+    """Write ``path`` whole or not at all (a temporary file renamed into place)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(json.dumps(data, indent=2))
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def _command(args: argparse.Namespace) -> int:
     """Check every argument, then run; each run's record is appended to
     ``OUT/runs.jsonl`` as it ends; the summary goes to ``OUT/campaign.json`` and the
     console. Ctrl-C: the partial summary of the finished runs is written and printed,
-    exit 130."""
-    try:
-        faults = [float(x) for x in args.faults.split(",") if x.strip()]
-    except ValueError:
-        print(
-            f"aiocram campaign: --faults takes numbers like 0,0.05,0.1, got {args.faults!r}",
-            file=sys.stderr,
-        )
-        return 2
+    exit 130. A write that fails stops the campaign (no further run starts), keeps
+    every run written so far, prints the runs it could not write and says what to free,
+    exit 4."""
+    from aiocram._outputs import OutputError, Outputs, check_out_dir
+
     modes: tuple[bool, ...] = (False,) if args.no_projection else (True, False)
     if args.only_projection:
         modes = (True,)
     settings = dict(
         seeds=args.seeds,
-        faults=faults,
+        faults=args.faults,
         projection_modes=modes,
         backend=args.backend,
         first_seed=args.first_seed,
@@ -604,22 +844,50 @@ def _command(args: argparse.Namespace) -> int:
         jobs = plan_campaign(**settings)
         if args.workers < 1:
             raise ValueError(f"--workers must be at least 1, got {args.workers}")
-    except ValueError as exc:
-        print(f"aiocram campaign: {exc}", file=sys.stderr)
-        return 2
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    runs_path = out / "runs.jsonl"
-    runs_file = runs_path.open("w")
+        if args.scheduler is not None and args.backend != "dask":
+            raise ValueError(f"--scheduler {args.scheduler}: a dask scheduler needs --backend dask")
+        check_out_dir(args.out)
+    except (ValueError, OutputError) as exc:
+        return _usage(str(exc))
+    out: Path = args.out
+    previous = _previous_campaign(out)
+    if previous and not args.overwrite:
+        return _usage(
+            f"--out {out} holds a campaign already ({', '.join(previous)}); give another "
+            "--out, or add --overwrite to replace it when this campaign ends"
+        )
+    client = None
+    if args.backend == "dask" and args.scheduler is not None:
+        try:  # before anything is written: a scheduler that does not answer is an error
+            client = connect(args.scheduler)
+        except SchedulerError as exc:
+            return _usage(str(exc))
+    # --overwrite: the new files are staged and replace the previous campaign's at the end
+    staged: Outputs | None = None
+    try:
+        if previous:
+            staged = Outputs(out, stale=CAMPAIGN_FILES)
+            where = staged.staging
+        else:
+            out.mkdir(parents=True, exist_ok=True)
+            where = out
+        runs = _RunsFile(where / "runs.jsonl")
+    except (OutputError, OSError) as exc:
+        if client is not None:
+            client.close()
+        text = str(exc) if isinstance(exc, OutputError) else f"{exc.strerror or exc}"
+        return _usage(f"--out {out}: cannot write there: {text}")
+
+    unsaved: list[dict[str, Any]] = []  # finished runs that runs.jsonl could not take
 
     def append(record: dict[str, Any]) -> None:
-        runs_file.write(json.dumps(record) + "\n")
-        runs_file.flush()
+        if not runs.append(record):
+            unsaved.append(record)
 
     def progress(done: int, total: int) -> None:
         print(f"\r{done}/{total} runs", end="", file=sys.stderr, flush=True)
 
+    t0 = time.perf_counter()
     results: list[dict[str, Any]] = []
     interrupted = False
     restore_sigint = _own_sigint()
@@ -631,12 +899,14 @@ def _command(args: argparse.Namespace) -> int:
             progress=progress,
             on_result=append,
             results=results,
+            stop=lambda: runs.error is not None,
+            client=client,
         )
     except KeyboardInterrupt:
         interrupted = True
     finally:
         restore_sigint()
-        runs_file.close()
+        runs.close()
     print(file=sys.stderr)
     summary = summarise(results)
     summary["command"] = " ".join(["aiocram", *sys.argv[1:]])
@@ -645,11 +915,34 @@ def _command(args: argparse.Namespace) -> int:
     summary["wall_time_s"] = time.perf_counter() - t0
     summary["runs_finished"] = len(results)
     summary["runs_planned"] = len(jobs)
-    summary["partial"] = interrupted
-    (out / "campaign.json").write_text(json.dumps({"summary": summary, "runs": results}, indent=2))
-    plots = _plot(summary, out)
+    summary["partial"] = interrupted or runs.error is not None
+    failure: OSError | None = runs.error
+    if staged is not None and not results:
+        # interrupted before any run ended: nothing to replace the previous campaign with
+        import shutil
+
+        shutil.rmtree(staged.staging, ignore_errors=True)
+        _print_summary(summary)
+        print(
+            f"aiocram campaign: no run finished; the previous campaign in {out} is left as it was",
+            file=sys.stderr,
+        )
+        return 130
+    written: list[Path] = []
+    try:
+        _write_json(where / "campaign.json", {"summary": summary, "runs": results})
+        written.append(where / "campaign.json")
+        written += _plot(summary, where)
+    except OSError as exc:
+        failure = failure or exc
+    if staged is not None:
+        staged.commit(CAMPAIGN_FILES)  # renames: they need no space
+    final = [out / p.name for p in [runs.path, *written]]
     _print_summary(summary)
-    print(f"wrote {runs_path}, {out / 'campaign.json'} and {', '.join(str(p) for p in plots)}")
+    print(f"wrote {', '.join(str(p) for p in final)}")
+    if failure is not None:
+        path = out / "runs.jsonl" if failure is runs.error else failure.filename or out
+        return _not_written(failure, path, out, runs.written, unsaved, len(results), len(jobs))
     if interrupted:
         print(
             f"aiocram campaign: interrupted; partial summary of {len(results)} of {len(jobs)} runs",
@@ -659,17 +952,51 @@ def _command(args: argparse.Namespace) -> int:
     errors = sum(1 for r in results if "error" in r)
     if errors:
         print(
-            f"{errors} runs crashed in the harness (see 'error' in campaign.json)", file=sys.stderr
+            f"{_runs(errors)} crashed in the harness (see 'error' in campaign.json)",
+            file=sys.stderr,
         )
-        return 3
+        return EXIT_HARNESS
     violated = sum(len(r["invariant_violations"]) for r in summary["rows"])
-    return 1 if violated else 0
+    return EXIT_VIOLATED if violated else EXIT_OK
+
+
+def _runs(n: int) -> str:
+    return "1 run" if n == 1 else f"{n} runs"
+
+
+def _not_written(
+    failure: OSError,
+    path: Any,
+    out: Path,
+    on_disk: int,
+    unsaved: list[dict[str, Any]],
+    done: int,
+    planned: int,
+) -> int:
+    """Say what could not be written and what to free; print the runs not on disk."""
+    for record in unsaved:  # nothing finished is lost: the records go to stdout
+        print(json.dumps(record))
+    print(
+        f"aiocram campaign: error: cannot write {path}: {failure.strerror or failure}. "
+        f"The campaign stopped after {done} of {planned} runs: {out}/runs.jsonl keeps the "
+        f"{_runs(on_disk)} written before"
+        + (
+            f"; the {_runs(len(unsaved))} finished that it could not take "
+            f"{'is' if len(unsaved) == 1 else 'are'} printed on stdout as JSON lines "
+            "(append them to runs.jsonl)"
+            if unsaved
+            else ""
+        )
+        + f". Free space on the file system of {out} (df -h {out}) or give an --out "
+        "elsewhere, and run the remaining seeds (--first-seed) again.",
+        file=sys.stderr,
+    )
+    return EXIT_NOT_WRITTEN
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="aiocram")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser(sub)
-    args = parser.parse_args(argv)
-    handler: Callable[[argparse.Namespace], int] = args.handler
-    return handler(args)
+    """``aiocram campaign ...`` (``argv`` starts with ``"campaign"``); the exit status,
+    2 for bad arguments, without raising ``SystemExit`` (see :func:`aiocram.cli.main`)."""
+    from aiocram.cli import main as cli_main
+
+    return cli_main(argv)

@@ -13,8 +13,11 @@ the parsed namespace and returning the exit code), and list it in :data:`_SUBCOM
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from importlib import metadata
 from typing import Any
 
@@ -69,9 +72,28 @@ def _add_show(subparsers: _Subparsers) -> None:
     p.add_argument(
         "--collapse",
         action="store_true",
-        help="fold subtrees that finished without failing into one line",
+        help="the compact tree the demo prints: one line per top-level step, its "
+        "failures folded by name with a count and the last failure (--max-nodes: not used)",
     )
     p.set_defaults(handler=_run_show)
+
+
+class _AsciiBuffer(io.StringIO):
+    """A text buffer that says it holds ASCII, so rich draws tree guides in ASCII."""
+
+    encoding = "ascii"
+
+
+def _ascii_text(renderable: Any, width: int) -> str:
+    from rich.console import Console
+
+    buffer = _AsciiBuffer()
+    Console(file=buffer, width=width, color_system=None, highlight=False).print(renderable)
+    return buffer.getvalue().translate(_TO_ASCII)
+
+
+#: one character for one, so that the lines keep their width
+_TO_ASCII = str.maketrans({"—": "-", "×": "x", "…": "~", "→": ">", "✔": "+", "✘": "x"})
 
 
 def _run_show(args: argparse.Namespace) -> int:
@@ -90,7 +112,14 @@ def _run_show(args: argparse.Namespace) -> int:
         print(f"aiocram show: error: cannot read {args.log}: {exc}", file=sys.stderr)
         return 2
     console = Console(highlight=False)
-    if args.ascii:
+    if args.collapse:  # the compact tree the demo prints at its end
+        from aiocram._views import final_tree
+
+        if args.ascii:
+            sys.stdout.write(_ascii_text(final_tree(tree, ascii=True), console.width))
+        else:
+            console.print(final_tree(tree))
+    elif args.ascii:
         text = render_text(
             tree,
             ascii=True,
@@ -171,6 +200,32 @@ def _import_pybullet_quietly() -> None:
         pass
 
 
+#: How a log record or a Python warning reaches the console during a command: its level
+#: and the logger's name, like plans.log (``WARNING plans.fetch_deliver: ...``).
+LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
+
+
+@contextlib.contextmanager
+def _console_logging() -> Iterator[None]:
+    """Log records (WARNING and up) and Python warnings go to stderr as
+    :data:`LOG_FORMAT` while a command runs, instead of the bare message of logging's
+    last-resort handler. Left as it is when the root logger has handlers already (an
+    application or pytest configured logging); undone at the end."""
+    root = logging.getLogger()
+    if root.handlers:
+        yield
+        return
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter(LOG_FORMAT))
+    root.addHandler(handler)
+    logging.captureWarnings(True)
+    try:
+        yield
+    finally:
+        logging.captureWarnings(False)
+        root.removeHandler(handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aiocram`` command; returns the exit code (2 for bad
     arguments, as argparse reports them, without raising ``SystemExit``)."""
@@ -180,7 +235,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     _import_pybullet_quietly()
     handler: Callable[[argparse.Namespace], int] = args.handler
-    return handler(args)
+    with _console_logging():
+        return handler(args)
 
 
 if __name__ == "__main__":

@@ -17,9 +17,11 @@ sees) and ``costmap-*.png`` (the base-pose costmaps the real run used).
 from __future__ import annotations
 
 import argparse
+import asyncio
 import contextlib
 import math
 import os
+import re
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -364,7 +366,7 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
         )
         real_sim, imagined = _transport_times(root, watch)
         if outputs is not None:
-            _write_pictures(outputs, true_world, camera, costmaps, engine_box)
+            _write_pictures(outputs, true_world, camera, costmaps, engine_box, interrupts)
             route.write(true_world, foresight_records(root), outputs.path("floor_plan.png"))
         report = DemoReport(
             config,
@@ -463,7 +465,12 @@ def _route_plan_logs(path: Path | None) -> Callable[[], None]:
 
 
 def _write_pictures(
-    outputs: Any, true_world: Any, camera: Any, costmaps: Any, engine_box: list[Any]
+    outputs: Any,
+    true_world: Any,
+    camera: Any,
+    costmaps: Any,
+    engine_box: list[Any],
+    interrupts: Any = None,
 ) -> None:
     """The final scene (true world), the head camera at the last detection, and the
     costmaps the real run navigated by (see :mod:`aiocram._figures`). A picture that
@@ -475,7 +482,8 @@ def _write_pictures(
     # same pictures in about half the wall time on two cores)
     child = None
     if engine is not None and len(costmaps.uses) > 1:
-        child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)))
+        adopt = interrupts.adopt if interrupts is not None else None
+        child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)), adopt)
     try:
         try:
             render.scene(true_world, outputs.path("final_scene.png"))
@@ -487,6 +495,8 @@ def _write_pictures(
     finally:
         if child is not None:
             _, status = os.waitpid(child, 0)
+            if interrupts is not None:
+                interrupts.release(child)
             if status != 0:
                 print(
                     f"(some costmap pictures not drawn: their process ended with {status})",
@@ -494,12 +504,16 @@ def _write_pictures(
                 )
 
 
-def _fork(work: Callable[[], Any]) -> int | None:
+def _fork(work: Callable[[], Any], adopt: Callable[[int], None] | None = None) -> int | None:
     """Run ``work`` in a forked child that ends with ``os._exit`` (none of this process's
     cleanup runs there) and ignores Ctrl-C (the parent waits for it); the child's pid, or
     None where there is no fork or other threads run (``work`` is then left to the
-    caller)."""
+    caller). ``adopt(pid)`` is called in the parent before a Ctrl-C can be handled (SIGINT
+    is blocked around the fork), so an abort by a second Ctrl-C can kill the child
+    (:meth:`aiocram._interrupt.Interrupts.adopt`) rather than leave it writing after the
+    command ended."""
     import logging
+    import signal
     import threading
 
     if not hasattr(os, "fork") or threading.active_count() > 1:
@@ -510,17 +524,23 @@ def _fork(work: Callable[[], Any]) -> int | None:
     for name in ("plans", "executive", "projection", "cpl"):
         for handler in logging.getLogger(name).handlers:
             handler.flush()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         pid = os.fork()
     except OSError:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         return None
     if pid:
+        try:
+            if adopt is not None:
+                adopt(pid)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a pending Ctrl-C runs now
         return pid
     code = 1
     try:
-        import signal
-
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         work()
         code = 0
     except BaseException:
@@ -568,8 +588,92 @@ def _retries_text(retries: dict[str, int]) -> str:
     return f"{sum(granted.values())}: " + ", ".join(f"{k} {v}" for k, v in kinds)
 
 
-def _print_report(report: DemoReport, console: Any) -> None:
+#: The table's numeric columns: the full header, the short one for a narrow console
+#: (the caption explains both).
+_NUMBER_HEADERS = (("dist (m)", "dist"), ("sim (s)", "sim"), ("imag (s)", "imag"))
+_TABLE_CHROME = 19  # 7 vertical rules and a space each side of 6 cells
+
+
+def _breaks(text: str, width: int) -> str:
+    """``text`` broken into lines of at most ``width`` where words join: before a capital
+    (``ObjectNowhere`` / ``ToBeFound``), after a hyphen or at a space; a part longer than
+    ``width`` is left for the table to fold."""
+    parts = re.findall(r"[A-Z]?[^A-Z\s-]*-?\s*", text)
+    lines = [""]
+    for part in (p for p in parts if p):
+        if lines[-1] and len(lines[-1]) + len(part.rstrip()) > width:
+            lines.append("")
+        lines[-1] += part
+    return "\n".join(line.rstrip() for line in lines)
+
+
+def outcome_table(report: DemoReport, width: int = 80) -> Any:
+    """The summary per object as a rich table at most ``width`` columns wide (down to
+    about 50). A number is never cut: the numeric columns are as wide as their widest
+    value, with short headers when the console is narrow; the object and outcome cells
+    wrap where words join; the retries cell, whose kinds are listed in full below the
+    table, keeps its total and is cut after it with an ellipsis."""
+    from rich.markup import escape
     from rich.table import Table
+
+    rows: list[tuple[str, str, str, str, list[str]]] = []  # name, outcome, style, retries
+    for name, o in report.outcomes.items():
+        truth = None if report.truth is None else report.truth.objects.get(o.name)
+        if truth is not None and truth.delivered:
+            outcome, style = "delivered", "green"
+        elif truth is not None and truth.phantom:
+            outcome, style = f"phantom ({truth.where})", "red"
+        elif o.failure is None or isinstance(o.failure, asyncio.CancelledError):
+            outcome, style = "interrupted", "grey50"  # Ctrl-C evaporated the plan
+        else:
+            outcome, style = type(o.failure).__name__, "red"
+        numbers = [
+            f"{o.distance:.2f}",
+            f"{report.real_sim_s.get(name, 0.0):.1f}",
+            f"{report.imagined_wall_s.get(name, 0.0):.2f}",
+        ]
+        rows.append((name, outcome, style, _retries_text(o.retries), numbers))
+    headers = [full for full, _ in _NUMBER_HEADERS]
+    widths = [max([len(h), *(len(r[4][i]) for r in rows)]) for i, h in enumerate(headers)]
+    room = width - _TABLE_CHROME - sum(widths)
+    if room < 32:  # narrow: the short headers
+        headers = [short for _, short in _NUMBER_HEADERS]
+        widths = [max([len(h), *(len(r[4][i]) for r in rows)]) for i, h in enumerate(headers)]
+        room = width - _TABLE_CHROME - sum(widths)
+    # the three text columns (object, outcome, retries) share ``room``, shrunk one
+    # character at a time: the retries down to 10, then object and outcome (wrapping)
+    # down to 12, then the retries down to their total and an ellipsis, then the rest
+    text = [
+        max([6, *(len(r[0]) for r in rows)]),
+        max([7, *(len(r[1]) for r in rows)]),
+        max([7, *(len(r[3]) for r in rows)]),
+    ]
+    total = max([1, *(len(r[3].split(":")[0]) for r in rows)])
+    for floors in ((99, 99, 10), (12, 12, 10), (12, 12, total + 2), (4, 4, total + 2)):
+        for i in (2, 1, 0):
+            cut = min(sum(text) - room, text[i] - min(floors[i], text[i]))
+            text[i] -= max(0, cut)
+    table = Table(
+        title=f"table setting, seed {report.config.seed}"
+        f" ({'with' if report.config.projection else 'without'} projection reasoning)",
+        caption="dist: m driven · sim: simulated s · imag: wall s imagining",
+    )
+    table.add_column("object", width=text[0], overflow="fold")
+    table.add_column("outcome", width=text[1], overflow="fold")
+    table.add_column("retries", width=text[2], no_wrap=True, overflow="ellipsis")
+    for header, w in zip(headers, widths, strict=True):
+        table.add_column(header, justify="right", no_wrap=True, width=w)
+    for name, outcome, style, retries, numbers in rows:
+        table.add_row(
+            _breaks(name, text[0]),
+            f"[{style}]{escape(_breaks(outcome, text[1]))}[/]",
+            retries,
+            *numbers,
+        )
+    return table
+
+
+def _print_report(report: DemoReport, console: Any) -> None:
 
     from ._views import final_tree
 
@@ -578,42 +682,13 @@ def _print_report(report: DemoReport, console: Any) -> None:
         console.print(final_tree(report.root))
         if log is not None:
             console.print(
-                f"the whole tree: aiocram show --collapse {log}",
+                f"the whole tree: aiocram show {log}",
                 soft_wrap=True,
                 markup=False,
                 highlight=False,
                 style="dim",
             )
-    table = Table(
-        title=f"table setting, seed {report.config.seed}"
-        f" ({'with' if report.config.projection else 'without'} projection reasoning)",
-        caption="dist: m driven · sim: simulated s · imag: wall s imagining",
-    )
-    # fits 80 columns: long cells are cut with an ellipsis, never wrapped into towers
-    # fixed widths: 80 columns in all (the JSON and plans.log have the whole text)
-    for header, width in (("object", 16), ("outcome", 12), ("retries", 10)):
-        table.add_column(header, no_wrap=True, overflow="ellipsis", width=width)
-    for header in ("dist (m)", "sim (s)", "imag (s)"):
-        table.add_column(header, justify="right", no_wrap=True, width=len(header))
-    for name, o in report.outcomes.items():
-        truth = None if report.truth is None else report.truth.objects.get(o.name)
-        if truth is not None and truth.delivered:
-            outcome = "[green]delivered[/]"
-        elif truth is not None and truth.phantom:
-            outcome = f"[red]phantom ({truth.where})[/]"
-        elif o.failure is None:
-            outcome = "[grey50]interrupted[/]"
-        else:
-            outcome = f"[red]{type(o.failure).__name__}[/]"
-        table.add_row(
-            name,
-            outcome,
-            _retries_text(o.retries),
-            f"{o.distance:.2f}",
-            f"{report.real_sim_s.get(name, 0.0):.1f}",
-            f"{report.imagined_wall_s.get(name, 0.0):.2f}",
-        )
-    console.print(table)
+    console.print(outcome_table(report, console.width))
     print_foresight(report.foresight, console)
     kinds = [(name, _retries_text(o.retries)) for name, o in report.outcomes.items()]
     kinds = [(name, text.split(": ", 1)[1]) for name, text in kinds if text != "-"]
@@ -641,7 +716,11 @@ def _print_report(report: DemoReport, console: Any) -> None:
         )
     bad = {k: report.violations.get(k, "") for k, v in report.invariants.items() if not v}
     if bad:
-        console.print(f"[red]invariants violated:[/] {bad}")
+        from rich.text import Text
+
+        console.print("[red]invariants violated:[/]")
+        for name, why in bad.items():  # one per line, the detail as recorded
+            console.print(Text(f"  {name}: {why or '(no detail recorded)'}"), soft_wrap=True)
     else:
         console.print("invariants hold: " + ", ".join(report.invariants))
     for path in report.files:  # whole, so that it can be copied
@@ -678,6 +757,7 @@ def _whole(minimum: int) -> Callable[[str], int]:
 
 def add_parser(subparsers: Any) -> None:
     from aiocram._help import HelpFormatter
+    from aiocram._outputs import out_dir_arg
 
     p = subparsers.add_parser(
         "demo",
@@ -729,6 +809,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--gui", action="store_true", help="show the true world in a PyBullet GUI")
     p.add_argument(
         "--out",
+        type=out_dir_arg,
         default="out/demo",
         metavar="DIR",
         help="directory for log.jsonl, plans.log and the pictures (replaced when the run "

@@ -81,7 +81,8 @@ async def manipulate_environment(
     pose. Raises ``EnvironmentManipulationImpossible`` (also for designator errors)."""
 
     def impossible(_failure: BaseException | None = None) -> EnvironmentManipulationImpossible:
-        return EnvironmentManipulationImpossible(f"cannot {action_type} {container.short()}")
+        verb = "open" if action_type == "accessing" else "close"  # "cannot open drawer-1"
+        return EnvironmentManipulationImpossible(f"cannot {verb} {container.short()}")
 
     async def body() -> None:
         link = handle_link(container)

@@ -18,6 +18,7 @@ Retries granted in imagination are not tallied in the caller's :func:`retry_ledg
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 import time
@@ -325,11 +326,15 @@ class RunAssessment:
         elif self.unstable:
             what = "unstable object"
         elif self.retries > MANY_RETRIES:
-            what = f"{self.retries} retries"
+            # the retries are the verdict: said once ("15 retries, cost 18.91")
+            return f"{self.retries} retries, cost {self._cost_text()}"
         else:
             what = "clean"
-        cost = "-" if self.cost is None else f"{self.cost:.2f}"
-        return f"{what}, cost {cost}, {self.retries} retries"
+        retries = "1 retry" if self.retries == 1 else f"{self.retries} retries"
+        return f"{what}, cost {self._cost_text()}, {retries}"
+
+    def _cost_text(self) -> str:
+        return "-" if self.cost is None else f"{self.cost:.2f}"
 
 
 def _object_poses(world: Any, names: Sequence[str]) -> dict[str, Pose]:
@@ -578,8 +583,11 @@ def watch_bases(
 def run_outcome(run: cpl.Task, failure: BaseException | None = None) -> str:
     """``"succeeded"`` or the failure class name: the failure that ended ``run``, else that
     of a failed ``delivering`` inside it (a transport that dropped its object at the sink
-    still returns), else ``"succeeded"``."""
+    still returns), else ``"succeeded"``; ``"interrupted"`` when the run was evaporated
+    or cancelled (e.g. Ctrl-C) rather than failed."""
     failure = failure if failure is not None else run.failure
+    if isinstance(failure, asyncio.CancelledError) or run.state is cpl.Status.EVAPORATED:
+        return "interrupted"
     if failure is not None:
         return type(failure).__name__
     failed = performed(run, "delivering", state=cpl.Status.FAILED)

@@ -87,15 +87,20 @@ class FaultProfile:
         """From a command-line string: ``"0.1"`` (uniform), or comma-separated
         ``key=value`` items (keys: the kinds, ``miss_rate``, ``seed``,
         ``detection_noise=POS:YAW``), optionally led by a bare uniform rate:
-        ``"0.05,grasp_slip=0.2,seed=3"``. Malformed text: ValueError naming the keys."""
+        ``"0.05,grasp_slip=0.2,seed=3"``. Malformed text, or a key given twice: ValueError
+        naming the keys."""
         known = {f.name for f in fields(cls)}
         values: dict[str, Any] = {}
         items = [item.strip() for item in text.split(",") if item.strip()]
         if not items:
             raise ValueError("an empty fault profile; give a rate like '0.1' or 'ik=0.2'")
+        given: set[str] = set()  # the keys given as key=value, each at most once
         for k, item in enumerate(items):
             key, sep, raw = item.partition("=")
             key = key.strip().replace("-", "_")
+            if sep and key in given:
+                raise ValueError(f"{key} given more than once in {text!r}; give each key once")
+            given.add(key)
             try:
                 if not sep:
                     if k != 0:

@@ -78,7 +78,7 @@ def test_a_killed_worker_is_recorded_and_the_campaign_goes_on(tmp_path, monkeypa
     assert row["invariant_violations"] == [
         {"seed": 2, "invariant": "harness", "detail": records[2]["error"]}
     ]
-    assert "1 runs crashed in the harness" in capsys.readouterr().err
+    assert "1 run crashed in the harness" in capsys.readouterr().err
 
 
 _INTERRUPTIBLE = textwrap.dedent(
@@ -179,5 +179,5 @@ def test_bad_objects_rejected_before_any_job(tmp_path, monkeypatch, capsys, obje
 
 def test_bad_workers_rejected(tmp_path, capsys):
     assert main(["campaign", "--workers", "0", "--out", str(tmp_path / "w")]) == 2
-    assert "--workers must be at least 1" in capsys.readouterr().err
+    assert "argument --workers: must be a whole number >= 1" in capsys.readouterr().err
     assert not (tmp_path / "w").exists()

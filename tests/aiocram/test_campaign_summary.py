@@ -137,4 +137,5 @@ def test_summary_table_fits_80_columns():
         "12.35",
         "100",
         "0",
+        "0",
     ]

@@ -109,7 +109,7 @@ def test_demo_with_one_object_writes_everything(tmp_path):
     text = proc.stdout
     assert "1/1 objects delivered" in text
     assert re.search(r"^✔ demo \[top-level\]", text, re.M), text
-    assert f"the whole tree: aiocram show --collapse {out}/log.jsonl\n" in text
+    assert f"the whole tree: aiocram show {out}/log.jsonl\n" in text
     names = sorted(p.name for p in out.iterdir())
     assert "costmap-9-old.png" not in names
     assert not [n for n in names if n.startswith(".partial")]

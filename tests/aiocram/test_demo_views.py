@@ -123,8 +123,14 @@ def test_final_tree_has_a_finished_root_and_folded_failures():
     first = text.splitlines()[0]
     assert first.startswith("✔ demo") and "running" not in text
     assert "perception ×5" in text
-    assert "aiocram show --collapse out/demo/log.jsonl" in text
+    assert "the whole tree: aiocram show out/demo/log.jsonl" in text
     _check("final_tree_80.txt", text)
+
+
+def test_one_failed_task_is_singular():
+    _, root = _run(fails=1)
+    text = _text(final_tree(root))
+    assert "— 1 failed task\n" in text and "1 failed tasks" not in text
 
 
 def test_fold_failures_leaves_imagined_runs_out():

@@ -161,6 +161,15 @@ def test_many_retries_lose_and_failures_never_win():
     assert pick_by_prediction([a, b]) is b
 
 
+def test_the_verdict_says_the_retries_once_and_in_the_singular_for_one():
+    many = _assessment("projection-run-1", 1.0, retries=15)
+    one = _assessment("projection-run-2", 1.0, retries=1)
+    none = _assessment("projection-run-3", 1.0)
+    assert many.verdict() == "15 retries, cost 16.00"
+    assert one.verdict() == "clean, cost 2.00, 1 retry"
+    assert none.verdict() == "clean, cost 1.00, 0 retries"
+
+
 # --------------------------------------------------------------------------- fidelity
 def test_fidelity_records_a_real_run_that_disagrees_with_its_prediction():
     """Scripted: the imagined runs succeed; the real robot's arm fails on every motion
@@ -207,6 +216,9 @@ def test_measure_fidelity_on_a_finished_task_tree():
     )
     disagreeing = measure_fidelity(chosen, real_run, None, ValueError("boom"))
     assert disagreeing.real == "ValueError" and not disagreeing.agrees
+    # a real run stopped by Ctrl-C (its task cancelled) was interrupted, not a failure
+    stopped = measure_fidelity(chosen, real_run, None, cpl.Evaporated("interrupted by Ctrl-C"))
+    assert stopped.real == "interrupted" and not stopped.agrees
 
 
 def test_the_demo_and_campaign_read_the_fidelity_from_the_tree():
