@@ -158,6 +158,25 @@ class _Use:
     robot: tuple[float, float, float]  # x, y, yaw where the robot stood
     objects: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]  # belief AABBs then
     tries: list[tuple[tuple[float, float, float], bool]] = field(default_factory=list)
+    task: Any = None  # the first real navigating task to this chain (for the task tree)
+
+
+@dataclass
+class _Alternative:
+    """One imagined alternative of the decision a real navigation ran inside: a
+    ``projection-run-K`` of a transport or an ``imagine-viewpoint-K`` of a search."""
+
+    name: str  # the imagined run's name ("projection-run-2", "viewpoint-1")
+    verdict: str  # what imagining it predicted ("clean, cost 4.92", "saw 3 points")
+    region: list[tuple[float, float, float]]  # the poses it was given, (among ...)
+    reached: tuple[float, float, float] | None  # where its imagined base stood, if it got there
+    failed: list[tuple[float, float, float]]  # poses its imagined navigation failed at
+    chosen: bool  # the real robot went on with this one
+
+
+def _plain(entries: Sequence[str]) -> tuple[str, ...]:
+    """Task path entries without their ``#N`` repeat suffixes."""
+    return tuple(e.split("#")[0] for e in entries)
 
 
 def _xyyaw(pose: Any) -> tuple[float, float, float]:
@@ -176,6 +195,12 @@ class CostmapRecorder(cpl.Instrument):
         #: :meth:`recording`); those that did not become solutions were rejected
         self.candidates: dict[int, list[tuple[float, float, float]]] = {}
         self.by_text: dict[str, list[tuple[float, float, float]]] = {}
+        #: the costmap designators (chain firsts) the validator saw, by id: where the
+        #: poses of an ``(among ...)`` location without ``(then ...)`` were drawn from
+        self.designators: dict[int, Any] = {}
+        #: imagined navigations: task -> the poses tried there and whether each succeeded
+        self.imagined: dict[Any, list[tuple[tuple[float, float, float], bool]]] = {}
+        self._imagined_pending: dict[int, tuple[Any, Any]] = {}
 
     def recording(self, rules: Any) -> Any:
         """A child of ``rules`` whose first location validator notes every candidate pose
@@ -190,6 +215,8 @@ class CostmapRecorder(cpl.Instrument):
                 xyyaw = _xyyaw(pose)
                 self.candidates.setdefault(id(first), []).append(xyyaw)
                 self.by_text.setdefault(repr(first), []).append(xyyaw)
+                if _has_costmap(first):
+                    self.designators[id(first)] = first
             return "unknown"
 
         child.register_location_validator(note, -1000)
@@ -200,7 +227,7 @@ class CostmapRecorder(cpl.Instrument):
         from executive import action_of
 
         action = action_of(task)
-        if action is None or action.type != "navigating" or imagined(task):
+        if action is None or action.type != "navigating":
             return None
         loc = action.get("location")
         if loc is None or not hasattr(loc, "first") or loc.get("pose") is not None:
@@ -208,6 +235,9 @@ class CostmapRecorder(cpl.Instrument):
         return loc
 
     def task_status_changed(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
+        if imagined(task):
+            self._imagined_status(task, old, new)
+            return
         if new is cpl.Status.RUNNING and old is cpl.Status.CREATED:
             loc = self._location(task)
             if loc is None:
@@ -224,6 +254,90 @@ class CostmapRecorder(cpl.Instrument):
             member = loc.newest_effective() if hasattr(loc, "newest_effective") else None
             if member is not None:
                 use.tries.append((_xyyaw(member.reference()), new is cpl.Status.SUCCEEDED))
+
+    def _imagined_status(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
+        """An imagined navigation: where it tried to stand and whether it got there (the
+        costmap figures show the imagined alternatives next to the real choice)."""
+        if new is cpl.Status.RUNNING and old is cpl.Status.CREATED:
+            loc = self._location(task)
+            if loc is not None:
+                self._imagined_pending[id(task)] = (task, loc)
+        elif new.dead and id(task) in self._imagined_pending:
+            _, loc = self._imagined_pending.pop(id(task))
+            member = loc.newest_effective() if hasattr(loc, "newest_effective") else None
+            if member is not None:
+                tried = (_xyyaw(member.reference()), new is cpl.Status.SUCCEEDED)
+                self.imagined.setdefault(task, []).append(tried)
+
+    def alternatives(self, use: _Use) -> list[_Alternative]:
+        """The imagined alternatives of the decision ``use``'s first navigation ran inside
+        (none outside one): the nearest enclosing task annotated with what was imagined,
+        a transport's ``real-run`` (:class:`plans.reasoning.RunAssessment` records) or a
+        search's ``chosen-viewpoint-K`` (:class:`plans.imagining.Imagined` records); each
+        record's own subtree (its ``assessment`` / ``imagined`` annotation is that very
+        record) holds the imagined navigation at the same place in the plan. The one the
+        real robot went on with is the one whose first pose is the real location's."""
+        from plans.imagining import Imagined
+        from plans.reasoning import RunAssessment
+
+        task = use.task
+        decision = task.parent if task is not None else None
+        records: tuple[Any, ...] = ()
+        key = ""
+        while decision is not None:
+            notes = decision.annotations or {}
+            runs, looks = notes.get("imagined"), notes.get("alternatives")
+            if isinstance(runs, tuple) and runs and isinstance(runs[0], RunAssessment):
+                records, key = runs, "assessment"
+                break
+            if isinstance(looks, tuple) and looks and isinstance(looks[0], Imagined):
+                records, key = looks, "imagined"
+                break
+            decision = decision.parent
+        if decision is None or decision.parent is None:
+            return []
+        where = _plain(task.path[len(decision.path) :])
+        real_first = _among(use.location)
+        out = []
+        for sibling in decision.parent.children:
+            record: Any = (sibling.annotations or {}).get(key)
+            if record is None or not any(record is r for r in records):
+                continue
+            navs = [
+                t
+                for t in self.imagined
+                if tuple(t.path[: len(sibling.path)]) == tuple(sibling.path)
+                and _plain(t.path[len(sibling.path) :]) == where
+            ]
+            if not navs:
+                continue
+            tries = [tried for t in navs for tried in self.imagined[t]]
+            first_loc = self._location(navs[0])
+            region = _among(first_loc.first()) if first_loc is not None else []
+            reached = next((p for p, ok in reversed(tries) if ok), None)
+            if isinstance(record, RunAssessment):
+                verdict = record.verdict()
+            else:  # a viewpoint: its own pose first, then every other one as a fallback
+                region = region[:1]
+                if record.succeeded:
+                    verdict = f"saw {record.value} search-region points"
+                else:
+                    verdict = f"fails ({record.outcome})"
+            if isinstance(record, RunAssessment):  # the real run got its parameters
+                chosen = record.params is (decision.annotations or {}).get("projected")
+            else:  # the real location starts with the alternative's own pose
+                chosen = bool(region and real_first and _close(region[0], real_first[0]))
+            out.append(
+                _Alternative(
+                    str(record.name),
+                    verdict,
+                    region,
+                    reached,
+                    [p for p, ok in tries if not ok],
+                    chosen,
+                )
+            )
+        return out
 
     def _new_use(self, task: cpl.Task, first: Any) -> _Use:
         purpose, obj = "location", "?"
@@ -250,7 +364,7 @@ class CostmapRecorder(cpl.Instrument):
         for name in self.world.objects:
             lo, hi = self.world.object_aabb(name)
             boxes[name] = (tuple(lo), tuple(hi))
-        return _Use(first, obj, purpose, step, _xyyaw(self.world.robot_pose()), boxes)
+        return _Use(first, obj, purpose, step, _xyyaw(self.world.robot_pose()), boxes, task=task)
 
     def figures(
         self, engine: Any, out_dir: Path, limit: int = 6, part: tuple[int, int] = (0, 1)
@@ -283,11 +397,59 @@ class CostmapRecorder(cpl.Instrument):
                     repr(use.location), []
                 )
                 paths.append(
-                    costmap_figure(engine, use, out_dir / name, number=k, candidates=tried)
+                    costmap_figure(
+                        engine,
+                        use,
+                        out_dir / name,
+                        number=k,
+                        candidates=tried,
+                        alternatives=self.alternatives(use),
+                        source=self.costmap_designator(use.location),
+                    )
                 )
             except Exception as exc:  # reported, and the demo goes on
                 print(f"(costmap {name} not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
         return paths
+
+    def costmap_designator(self, location: Any) -> Any:
+        """The designator whose costmap ``location``'s poses come from: itself if it has a
+        costmap key; for ``(among ...)`` its ``(then ...)`` fallback, or else the costmap
+        designator the validator saw produce its first pose (a viewpoint's pool is drawn
+        from the search's ``visible-for`` location); ``None`` if there is none."""
+        seen: set[int] = set()
+        while location is not None and id(location) not in seen:
+            seen.add(id(location))
+            if _has_costmap(location):
+                return location
+            fallback = location.get("then") if hasattr(location, "get") else None
+            if fallback is None:
+                break
+            location = fallback.first() if hasattr(fallback, "first") else fallback
+        poses = _among(location)
+        if not poses:
+            return None
+        for key, designator in reversed(self.designators.items()):
+            if any(_close(poses[0], p) for p in self.candidates.get(key, ())):
+                return designator
+        return None
+
+
+def _has_costmap(designator: Any) -> bool:
+    from projection._locations import LocationCostmaps
+
+    return bool(hasattr(designator, "kind") and LocationCostmaps.applies(designator))
+
+
+def _among(location: Any) -> list[tuple[float, float, float]]:
+    """The poses of an ``(among ...)`` location in the map frame (none otherwise)."""
+    poses = location.get("among") if location is not None and hasattr(location, "get") else None
+    if not isinstance(poses, tuple):
+        return []
+    return [_xyyaw(p) for p in poses if getattr(p, "frame", "map") == "map"]
+
+
+def _close(p: Sequence[float], q: Sequence[float]) -> bool:
+    return abs(p[0] - q[0]) < 1e-4 and abs(p[1] - q[1]) < 1e-4
 
 
 def _object_of_step(task: Any) -> str:
@@ -343,48 +505,217 @@ def draw_furniture(
         )
 
 
+#: the imagined alternatives' colours: clear of the objects' blue, the failures' red and
+#: the chosen pose's orange
+_ALTERNATIVE_COLOURS = ("tab:purple", "tab:cyan", "tab:olive", "tab:brown", "tab:pink")
+
+
+def _focus(
+    points: Sequence[tuple[float, float]],
+    bounds: tuple[float, float, float, float],
+    margin: float = 0.5,
+    span: float = 2.2,
+) -> tuple[float, float, float, float]:
+    """The view (x0, x1, y0, y1): around ``points`` with ``margin``, at least ``span``
+    metres each way, inside ``bounds`` (the whole kitchen without points)."""
+    if not points:
+        return bounds
+    bx0, bx1, by0, by1 = bounds
+    out = []
+    for lo_b, hi_b, values in (
+        (bx0, bx1, [p[0] for p in points]),
+        (by0, by1, [p[1] for p in points]),
+    ):
+        lo, hi = min(values) - margin, max(values) + margin
+        if hi - lo < span:
+            mid = (lo + hi) / 2
+            lo, hi = mid - span / 2, mid + span / 2
+        if hi - lo >= hi_b - lo_b:
+            lo, hi = lo_b, hi_b
+        elif lo < lo_b:
+            lo, hi = lo_b, lo_b + (hi - lo)
+        elif hi > hi_b:
+            lo, hi = hi_b - (hi - lo), hi_b
+        out += [lo, hi]
+    return out[0], out[1], out[2], out[3]
+
+
+def _cells(layer: Any, extent: tuple[float, float, float, float]) -> list[tuple[float, float]]:
+    """The corners of the box around a layer's positive cells (none if it has none)."""
+    rows, cols = np.nonzero(np.asarray(layer) > 0.0)
+    if rows.size == 0:
+        return []
+    h, w = np.asarray(layer).shape
+    sx, sy = (extent[1] - extent[0]) / w, (extent[3] - extent[2]) / h
+    return [
+        (extent[0] + cols.min() * sx, extent[2] + rows.min() * sy),
+        (extent[0] + (cols.max() + 1) * sx, extent[2] + (rows.max() + 1) * sy),
+    ]
+
+
+def _before_empty(cmap: Any) -> tuple[Any, str] | None:
+    """For an empty costmap: the product of its factors up to the one that left no cell
+    (in the order :class:`projection._costmaps.Costmap` multiplies them), and that factor's
+    name; ``None`` if every factor keeps a cell now (the world changed since)."""
+    spec = cmap.spec
+    xs, ys = spec.grid()
+    xs, ys = xs.ravel(), ys.ravel()
+    product = np.ones(xs.size)
+    for f in sorted(cmap.factors, key=lambda f: (f.expensive, -f.score)):
+        after = product * np.clip(np.asarray(f.fn(xs, ys), dtype=float), 0.0, None)
+        if not (after > 0.0).any():
+            return product.reshape(spec.height, spec.width), f.name
+        product = after
+    return None
+
+
+def _purpose_of(designator: Any, fallback: str) -> str:
+    for key, short in (("visible-for", "visible"), ("reachable-for", "reachable")):
+        if designator is not None and designator.get(key) is not None:
+            return short
+    return fallback
+
+
 def costmap_figure(
     engine: Any,
     use: _Use,
     path: Path,
     *,
     number: int = 1,
-    candidates: list[tuple[float, float, float]] = (),  # type: ignore[assignment]
+    candidates: Sequence[tuple[float, float, float]] = (),
+    alternatives: Sequence[_Alternative] = (),
+    source: Any = None,
 ) -> Path:
-    """One costmap figure (see the module docstring) written to ``path``; ``candidates``:
-    every pose the location pipeline generated for the chain (those that are not among
-    its solutions were rejected by a validator)."""
+    """One costmap figure (see the module docstring) written to ``path``: see
+    :func:`draw_costmap` for the arguments."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Polygon, Rectangle
 
-    cmap = engine.costmap(use.location)
-    spec = cmap.spec
-    values = np.asarray(cmap.values(), dtype=float)
-    top = float(cmap.max or 1.0)
+    fig, ax = plt.subplots(figsize=(8.0, 8.4), dpi=100)
+    try:
+        draw_costmap(
+            fig,
+            ax,
+            engine,
+            use,
+            number=number,
+            candidates=candidates,
+            alternatives=alternatives,
+            source=source,
+        )
+        fig.tight_layout()
+        # the layout is done: without an engine, savefig draws once instead of twice (the
+        # same pixels); compress_level 1 encodes the PNG several times faster (pixels
+        # unchanged, the file ~20 % larger)
+        fig.set_layout_engine("none")
+        fig.savefig(path, format="png", pil_kwargs={"compress_level": 1})
+    finally:
+        plt.close(fig)
+    return path
+
+
+def draw_costmap(
+    fig: Any,
+    ax: Any,
+    engine: Any,
+    use: _Use,
+    *,
+    number: int = 1,
+    candidates: Sequence[tuple[float, float, float]] = (),
+    alternatives: Sequence[_Alternative] = (),
+    source: Any = None,
+) -> None:
+    """Draw one costmap figure on ``ax``: the costmap of ``source`` (the designator the
+    location's poses come from, :meth:`CostmapRecorder.costmap_designator`; ``None``: the
+    location itself if it has a costmap) with a colour bar, or, when it is empty, the
+    cells the factors before the emptying one kept, in grey; the kitchen, the objects as
+    believed then, the robot before navigating, the poses tried and chosen;
+    ``candidates``: every pose the location pipeline generated for the chain (those not
+    among its solutions were rejected by a validator); ``alternatives``: the imagined
+    alternatives of the decision the navigation ran inside (their regions, where their
+    imagined robot stood, which one won).
+
+    Every plotted layer carries a ``gid`` so that a test can read the figure back:
+    ``costmap`` (the heat map), ``costmap-before-empty``, ``alternative-K-region``,
+    ``alternative-K-reached``, ``alternative-chosen``, ``chosen``, ``failed``."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon, Rectangle
+
+    if source is None and _has_costmap(use.location):
+        source = use.location
     world = engine.world
     boxes = kitchen_boxes(world)
     x0 = min(lo[0] for lo, _ in boxes) - 0.3
     x1 = max(hi[0] for _, hi in boxes) + 0.3
     y0 = min(lo[1] for lo, _ in boxes) - 0.3
     y1 = max(hi[1] for _, hi in boxes) + 0.3
-
-    fig, ax = plt.subplots(figsize=(8.0, 7.6), dpi=100)
-    extent = (
-        spec.origin[0],
-        spec.origin[0] + spec.width * spec.resolution,
-        spec.origin[1],
-        spec.origin[1] + spec.height * spec.resolution,
-    )
-    shown = np.ma.masked_less_equal(values / top, 0.0)
-    image = ax.imshow(
-        shown, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=1.0, zorder=1
-    )
-    bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
-    bar.set_label("costmap value (1 = best; blank = excluded)")
+    legend: list[Any] = [
+        Rectangle(
+            (0, 0), 1, 1, facecolor=(0.85, 0.85, 0.85), edgecolor="0.35", label="kitchen furniture"
+        ),
+        Rectangle((0, 0), 1, 1, facecolor="tab:blue", label="objects (as believed then)"),
+        Line2D([], [], color="black", ls="--", label="robot base before navigating"),
+    ]
+    note = ""
+    focus: list[tuple[float, float]] = [use.robot[:2]]
+    focus += [p[:2] for p, _ in use.tries]
+    for alt in alternatives:
+        focus += [p[:2] for p in (*alt.region, *alt.failed)]
+        focus += [alt.reached[:2]] if alt.reached is not None else []
+    if source is not None:
+        cmap = engine.costmap(source)
+        spec = cmap.spec
+        extent = (
+            spec.origin[0],
+            spec.origin[0] + spec.width * spec.resolution,
+            spec.origin[1],
+            spec.origin[1] + spec.height * spec.resolution,
+        )
+        before = _before_empty(cmap) if cmap.empty else None
+        if before is not None:
+            layer, factor = before
+            focus += _cells(layer, extent)
+            ax.imshow(
+                np.ma.masked_less_equal(layer, 0.0),
+                origin="lower",
+                extent=extent,
+                cmap="Greys",
+                vmin=-0.2 * float(layer.max()),
+                vmax=float(layer.max()),
+                alpha=0.6,
+                zorder=1,
+                gid="costmap-before-empty",
+            )
+            legend.append(
+                Patch(
+                    facecolor="0.55",
+                    label=f"cells the other factors keep: '{factor}' removes every one",
+                )
+            )
+            note = f"the costmap is empty: {cmap.empty_reason}"
+        elif cmap.empty:
+            note = f"the costmap is empty: {cmap.empty_reason}"
+        else:
+            values = np.asarray(cmap.values(), dtype=float) / float(cmap.max)
+            focus += _cells(values, extent)
+            image = ax.imshow(
+                np.ma.masked_less_equal(values, 0.0),
+                origin="lower",
+                extent=extent,
+                cmap="viridis",
+                vmin=0.0,
+                vmax=1.0,
+                zorder=1,
+                gid="costmap",
+            )
+            bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
+            bar.set_label("costmap value (1 = best; blank = excluded)")
+            if source is not use.location:
+                note = "the heat map: the costmap the chosen poses were drawn from"
+    else:
+        note = "no costmap: the plan gave the poses to try"
     draw_furniture(ax, boxes, lw=1.2)
     for name, (lo, hi) in use.objects.items():
         ax.add_patch(
@@ -436,10 +767,12 @@ def costmap_figure(
         fontsize=8,
         zorder=6,
     )
-    inner = use.location.get("location")
+    where = source if source is not None else use.location
+    inner = where.get("location")
     target = inner.get("pose") if inner is not None and hasattr(inner, "get") else None
     if target is not None and getattr(target, "frame", "map") == "map":
         tx, ty = float(target.position[0]), float(target.position[1])
+        focus.append((tx, ty))
         ax.scatter([tx], [ty], marker="D", s=70, color="magenta", edgecolor="black", zorder=8)
         ax.annotate(
             f"target: {use.object}",
@@ -450,6 +783,108 @@ def costmap_figure(
             color="purple",
             zorder=8,
         )
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="D",
+                ls="",
+                color="magenta",
+                markeredgecolor="black",
+                label=f"target: the point to see or reach ({use.object})",
+            )
+        )
+    for k, alt in enumerate(alternatives, start=1):
+        colour = _ALTERNATIVE_COLOURS[(k - 1) % len(_ALTERNATIVE_COLOURS)]
+        if alt.region:
+            ax.scatter(
+                [p[0] for p in alt.region],
+                [p[1] for p in alt.region],
+                marker="o",
+                s=22,
+                facecolor="none",
+                edgecolor=colour,
+                lw=1.2,
+                zorder=5,
+                gid=f"alternative-{k}-region",
+            )
+        if alt.failed:
+            ax.scatter(
+                [p[0] for p in alt.failed],
+                [p[1] for p in alt.failed],
+                marker="x",
+                s=30,
+                color=colour,
+                lw=1.2,
+                zorder=5,
+            )
+        if alt.reached is not None:
+            px, py, pyaw = alt.reached
+            ax.scatter(
+                [px],
+                [py],
+                marker="^",
+                s=70,
+                color=colour,
+                edgecolor="black",
+                lw=0.6,
+                zorder=6,
+                gid=f"alternative-{k}-reached",
+            )
+            ax.annotate(
+                "",
+                (px + 0.22 * math.cos(pyaw), py + 0.22 * math.sin(pyaw)),
+                (px, py),
+                arrowprops={"arrowstyle": "->", "color": colour, "lw": 1.2},
+                zorder=6,
+            )
+            if alt.chosen:
+                ax.scatter(
+                    [px],
+                    [py],
+                    marker="o",
+                    s=260,
+                    facecolor="none",
+                    edgecolor="black",
+                    lw=1.8,
+                    zorder=6,
+                    gid="alternative-chosen",
+                )
+        mark = " (chosen)" if alt.chosen else ""
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="^",
+                ls="",
+                color=colour,
+                markeredgecolor="black",
+                label=f"imagined {alt.name}{mark}: {alt.verdict}",
+            )
+        )
+    if alternatives:
+        legend += [
+            Line2D(
+                [],
+                [],
+                marker="o",
+                ls="",
+                markerfacecolor="none",
+                markeredgecolor="0.3",
+                label="its poses to try (region); ^ where its robot stood",
+            ),
+            Line2D(
+                [],
+                [],
+                marker="o",
+                ls="",
+                markerfacecolor="none",
+                markeredgecolor="black",
+                mew=1.8,
+                markersize=13,
+                label="the imagined run the real robot followed",
+            ),
+        ]
     failed = [p for p, ok in use.tries if not ok]
     good = [p for p, ok in use.tries if ok]
     tried = {(round(p[0], 3), round(p[1], 3)) for p, _ in use.tries}
@@ -467,6 +902,17 @@ def costmap_figure(
             lw=0.8,
             zorder=4,
         )
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="x",
+                ls="",
+                color="0.45",
+                mew=0.8,
+                label="sample rejected (collision, reach, view...)",
+            )
+        )
     if sampled:
         ax.scatter(
             [p[0] for p in sampled],
@@ -477,6 +923,17 @@ def costmap_figure(
             edgecolor="0.2",
             zorder=5,
         )
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="o",
+                ls="",
+                markerfacecolor="white",
+                markeredgecolor="0.2",
+                label="pose accepted, not driven to",
+            )
+        )
     if failed:
         ax.scatter(
             [p[0] for p in failed],
@@ -486,10 +943,32 @@ def costmap_figure(
             color="red",
             lw=2,
             zorder=6,
+            gid="failed",
+        )
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="x",
+                ls="",
+                color="red",
+                markersize=9,
+                mew=2,
+                label="pose tried, navigation failed",
+            )
         )
     if good:
         gx, gy, gyaw = good[-1]
-        ax.scatter([gx], [gy], marker="*", s=260, color="orange", edgecolor="black", zorder=7)
+        ax.scatter(
+            [gx],
+            [gy],
+            marker="*",
+            s=260,
+            color="orange",
+            edgecolor="black",
+            zorder=7,
+            gid="chosen",
+        )
         ax.annotate(
             "",
             (gx + 0.3 * math.cos(gyaw), gy + 0.3 * math.sin(gyaw)),
@@ -497,75 +976,37 @@ def costmap_figure(
             arrowprops={"arrowstyle": "->", "color": "darkorange", "lw": 2},
             zorder=7,
         )
-    legend = [
-        Rectangle(
-            (0, 0), 1, 1, facecolor=(0.85, 0.85, 0.85), edgecolor="0.35", label="kitchen furniture"
-        ),
-        Rectangle((0, 0), 1, 1, facecolor="tab:blue", label="objects (as believed then)"),
-        Line2D([], [], color="black", ls="--", label="robot base before navigating"),
-        Line2D(
-            [],
-            [],
-            marker="D",
-            ls="",
-            color="magenta",
-            markeredgecolor="black",
-            label=f"target: where {use.object} is (to see/reach)",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="*",
-            ls="",
-            color="orange",
-            markeredgecolor="black",
-            markersize=14,
-            label="pose chosen (navigation succeeded)",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="x",
-            ls="",
-            color="red",
-            markersize=9,
-            mew=2,
-            label="pose tried, navigation failed",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="o",
-            ls="",
-            markerfacecolor="white",
-            markeredgecolor="0.2",
-            label="pose accepted, not driven to",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="x",
-            ls="",
-            color="0.45",
-            mew=0.8,
-            label="sample rejected (collision, reach, view...)",
-        ),
-    ]
-    ax.legend(handles=legend, loc="upper left", fontsize=7.5, framealpha=0.9)
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(y0, y1)
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="*",
+                ls="",
+                color="orange",
+                markeredgecolor="black",
+                markersize=14,
+                label="pose the real robot stood at",
+            )
+        )
+    vx0, vx1, vy0, vy1 = _focus(focus, (x0, x1, y0, y1))
+    ax.set_xlim(vx0, vx1)
+    ax.set_ylim(vy0, vy1)
+    # under the plot, where it hides nothing
+    ax.legend(
+        handles=legend,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.09),
+        ncol=2,
+        fontsize=7,
+        framealpha=0.9,
+    )
     ax.set_aspect("equal")
     ax.set_xlabel("x (m, map frame)")
     ax.set_ylabel("y (m, map frame)")
     ax.grid(True, lw=0.3, alpha=0.5)
-    title = f"costmap {number}: {_PURPOSE[use.purpose]} {use.object} ({use.step})"
-    subtitle = textwrap.fill(use.location.short(), 95)
-    ax.set_title(f"{title}\n{subtitle}", fontsize=9)
-    fig.tight_layout()
-    # the layout is done: without an engine, savefig draws once instead of twice (the same
-    # pixels); compress_level 1 encodes the PNG several times faster (pixels unchanged,
-    # the file ~20 % larger)
-    fig.set_layout_engine("none")
-    fig.savefig(path, format="png", pil_kwargs={"compress_level": 1})
-    plt.close(fig)
-    return path
+    purpose = _purpose_of(source, use.purpose)
+    how = ", chosen by imagining" if alternatives else ""
+    title = f"costmap {number}: {_PURPOSE[purpose]} {use.object} ({use.step}{how})"
+    subtitle = textwrap.shorten(use.location.short(), 100)
+    lines = [title, subtitle] + ([textwrap.shorten(note, 110)] if note else [])
+    ax.set_title("\n".join(lines), fontsize=9)
