@@ -478,7 +478,9 @@ def _write_pictures(
         child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)))
     try:
         try:
-            render.scene(true_world, outputs.path("final_scene.png"))
+            # from where every object shows (the fixed overview hid some behind others)
+            shot = render.camera_showing(true_world)
+            render.scene(true_world, outputs.path("final_scene.png"), camera=shot)
             camera.write(outputs.path("robot_view.png"))
         except Exception as exc:  # reported; the run's outcome stands
             print(f"(pictures not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
