@@ -9,11 +9,18 @@ moved and the robot stands elsewhere) and drawn at the end:
   last one for a moment, renders it from the robot's head camera, projects the detected
   objects' bounding boxes into the image and outlines and names them.
 - :class:`CostmapRecorder`: when the real robot starts navigating to a costmap location
-  (``visible-for`` / ``reachable-for``), it notes the robot's pose and the objects as the
-  robot believed them then; at the end :func:`costmap_figure` draws, in metres, the
-  kitchen outline, the costmap with a colour bar, the objects where they were, the robot
-  where it started, every pose of that location chain the plan tried (and whether the
-  navigation from it failed) and the pose it chose.
+  (``visible-for`` / ``reachable-for``, or an ``(among ...)`` location whose poses a plan
+  chose, e.g. by imagining), it notes the robot's pose and the objects as the robot
+  believed them then; it also notes every imagined navigation's poses. At the end
+  :func:`costmap_figure` draws, in metres and zoomed on what matters, the kitchen
+  outline, the costmap the poses rest on with a colour bar (for ``(among ...)``: the
+  costmap its poses were drawn from, not its own factor-less map, which is one value
+  everywhere; for an empty costmap: the cells the factors before the emptying one kept,
+  and why it is empty), the objects where they were, the robot where it started, every
+  pose of that location chain the plan tried (and whether the navigation from it
+  failed), the pose it chose and, when the choice was imagined first, every imagined
+  alternative: the poses it was given, where its imagined robot stood, what imagining
+  it predicted, and which one the real robot followed. The legend sits under the plot.
 """
 
 from __future__ import annotations
@@ -794,6 +801,18 @@ def draw_costmap(
                 label=f"target: the point to see or reach ({use.object})",
             )
         )
+    if alternatives:
+        legend.append(
+            Line2D(
+                [],
+                [],
+                marker="^",
+                ls="",
+                color="0.6",
+                markeredgecolor="black",
+                label="where an imagined run's robot stood:",
+            )
+        )
     for k, alt in enumerate(alternatives, start=1):
         colour = _ALTERNATIVE_COLOURS[(k - 1) % len(_ALTERNATIVE_COLOURS)]
         if alt.region:
@@ -859,11 +878,11 @@ def draw_costmap(
                 ls="",
                 color=colour,
                 markeredgecolor="black",
-                label=f"imagined {alt.name}{mark}: {alt.verdict}",
+                label=f"{alt.name}{mark}: {alt.verdict}",
             )
         )
-    if alternatives:
-        legend += [
+    if any(alt.region for alt in alternatives):
+        legend.append(
             Line2D(
                 [],
                 [],
@@ -871,8 +890,11 @@ def draw_costmap(
                 ls="",
                 markerfacecolor="none",
                 markeredgecolor="0.3",
-                label="its poses to try (region); ^ where its robot stood",
-            ),
+                label="an imagined run's poses to try (its region)",
+            )
+        )
+    if alternatives:
+        legend += [
             Line2D(
                 [],
                 [],

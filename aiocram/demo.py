@@ -8,8 +8,9 @@ perception, injected faults). Before each transport the robot imagines fetch-and
 for real (``--no-projection`` turns that off).
 
 Outputs (``--out DIR``): ``log.jsonl`` (the event log; ``aiocram show DIR/log.jsonl``),
-``final_scene.png`` (the true world at the end), ``robot_view.png`` (what the head camera
-sees) and ``costmap-*.png`` (the base-pose costmaps the real run used).
+``final_scene.png`` (the true world at the end, from a camera that shows every object),
+``robot_view.png`` (what the head camera sees) and ``costmap-*.png`` (the base-pose
+costmaps the real run used, with the alternatives it imagined).
 
 :func:`run_demo_once` is the headless variant the robustness campaign runs.
 """
