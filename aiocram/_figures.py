@@ -38,7 +38,7 @@ import cpl
 
 from ._views import imagined
 
-__all__ = ["CameraRecorder", "CostmapRecorder", "costmap_figure"]
+__all__ = ["CameraRecorder", "CostmapRecorder", "costmap_figure", "write_scene"]
 
 _VIEW_SIZE = (640, 480)
 
@@ -56,6 +56,71 @@ def _names_in(result: Any) -> list[str]:
         if isinstance(name, str):
             names.append(name)
     return names
+
+
+def _shoot(
+    world: Any, camera: Any, names: Sequence[str]
+) -> tuple[np.ndarray, list[tuple[str, tuple[float, float, float, float]]]]:
+    """Render ``world`` from ``camera`` (:func:`projection.render.camera_image`) and
+    project each named object's bounding box into the picture: the pixels and, per object
+    in front of the camera and inside the frame, ``(name, (x0, y0, x1, y1))``."""
+    from projection import render
+
+    width, height = _VIEW_SIZE
+    pixels, view, proj = render.camera_image(world, camera, width, height)
+    m = _matrix(proj) @ _matrix(view)
+    boxes = []
+    for name in names:
+        lo, hi = world.object_aabb(name)
+        corners = np.array(
+            [[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        )
+        clip = corners @ m.T
+        if np.any(clip[:, 3] <= 1e-6):
+            continue  # partly behind the camera
+        ndc = clip[:, :3] / clip[:, 3:4]
+        xs = (ndc[:, 0] + 1.0) / 2.0 * width
+        ys = (1.0 - ndc[:, 1]) / 2.0 * height
+        box = (
+            float(np.clip(xs.min(), 0, width - 1)),
+            float(np.clip(ys.min(), 0, height - 1)),
+            float(np.clip(xs.max(), 0, width - 1)),
+            float(np.clip(ys.max(), 0, height - 1)),
+        )
+        if box[2] - box[0] >= 1 and box[3] - box[1] >= 1:
+            boxes.append((name, box))
+    return pixels, boxes
+
+
+def _tag(draw: Any, x: float, y: float, text: str, taken: list[tuple[float, ...]]) -> None:
+    """A name tag centred above (x, y), moved up past the tags already drawn."""
+    tw, th = 7 * len(text) + 8, 16
+    x0 = min(max(x - tw / 2, 0), _VIEW_SIZE[0] - tw)
+    y0 = max(y - th - 4, 0)
+    while any(x0 < t[2] and t[0] < x0 + tw and y0 < t[3] and t[1] < y0 + th for t in taken):
+        y0 -= th + 2
+    y0 = max(y0, 0)
+    taken.append((x0, y0, x0 + tw, y0 + th))
+    draw.rectangle((x0, y0, x0 + tw, y0 + th), fill=(255, 255, 255), outline=(20, 20, 20))
+    draw.text((x0 + 4, y0 + 2), text, fill=(0, 0, 0))
+
+
+def write_scene(world: Any, path: Path, camera: Any, caption: str) -> Path:
+    """The PNG of ``world`` from ``camera`` with every object in view named (a tag above
+    it) and ``caption`` on a bar at the bottom, followed by how many objects are in view."""
+    from PIL import Image, ImageDraw
+
+    image, boxes = _shoot(world, camera, list(world.objects))
+    img = Image.fromarray(image, "RGB")
+    draw = ImageDraw.Draw(img)
+    taken: list[tuple[float, ...]] = []
+    for name, (x0, y0, x1, _y1) in sorted(boxes, key=lambda b: -b[1][1]):
+        _tag(draw, (x0 + x1) / 2, y0, name, taken)
+    draw.rectangle((0, img.height - 20, img.width, img.height), fill=(0, 0, 0))
+    counted = f"{len(boxes)} of {len(world.objects)} objects in view, each named"
+    draw.text((6, img.height - 16), f"{caption}: {counted}", fill=(255, 255, 255))
+    img.save(path, format="PNG")
+    return path
 
 
 class CameraRecorder(cpl.Instrument):
@@ -89,37 +154,7 @@ class CameraRecorder(cpl.Instrument):
     def _shoot(
         self, names: list[str]
     ) -> tuple[np.ndarray, list[tuple[str, tuple[float, float, float, float]]]]:
-        from projection import render
-
-        width, height = _VIEW_SIZE
-        pixels, view, proj = render.camera_image(self.world, "robot", width, height)
-        m = _matrix(proj) @ _matrix(view)
-        boxes = []
-        for name in names:
-            lo, hi = self.world.object_aabb(name)
-            corners = np.array(
-                [
-                    [x, y, z, 1.0]
-                    for x in (lo[0], hi[0])
-                    for y in (lo[1], hi[1])
-                    for z in (lo[2], hi[2])
-                ]
-            )
-            clip = corners @ m.T
-            if np.any(clip[:, 3] <= 1e-6):
-                continue  # partly behind the camera
-            ndc = clip[:, :3] / clip[:, 3:4]
-            xs = (ndc[:, 0] + 1.0) / 2.0 * width
-            ys = (1.0 - ndc[:, 1]) / 2.0 * height
-            box = (
-                float(np.clip(xs.min(), 0, width - 1)),
-                float(np.clip(ys.min(), 0, height - 1)),
-                float(np.clip(xs.max(), 0, width - 1)),
-                float(np.clip(ys.max(), 0, height - 1)),
-            )
-            if box[2] - box[0] >= 1 and box[3] - box[1] >= 1:
-                boxes.append((name, box))
-        return pixels, boxes
+        return _shoot(self.world, "robot", names)
 
     def write(self, path: Path) -> Path:
         """The PNG: the last detection's image with each detected object outlined and

@@ -471,6 +471,8 @@ def _write_pictures(
     cannot be drawn is reported on stderr: a picture never fails the demo."""
     from projection import render
 
+    from ._figures import write_scene
+
     engine = engine_box[0] if engine_box else None
     # every other costmap figure is drawn by a forked copy of this process meanwhile (the
     # same pictures in about half the wall time on two cores)
@@ -481,7 +483,8 @@ def _write_pictures(
         try:
             # from where every object shows (the fixed overview hid some behind others)
             shot = render.camera_showing(true_world)
-            render.scene(true_world, outputs.path("final_scene.png"), camera=shot)
+            caption = "the true world at the end of the run"
+            write_scene(true_world, outputs.path("final_scene.png"), shot, caption)
             camera.write(outputs.path("robot_view.png"))
         except Exception as exc:  # reported; the run's outcome stands
             print(f"(pictures not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)

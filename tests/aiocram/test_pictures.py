@@ -201,3 +201,23 @@ def test_campaign_plots_say_how_many_seeds(tmp_path: Path, monkeypatch: Any) -> 
     assert all(f"{min(runs)} seeds per point" in t for t in titles), titles
     for path in paths:
         assert_picture_shows_something(path)
+
+
+def test_the_final_scene_shows_and_names_every_object(tmp_path: Path) -> None:
+    """A cup the overview camera hides behind the cereal box: the demo's final scene
+    (camera_showing + write_scene) has both in view, each with a name tag."""
+    from executive import Pose
+    from projection import World, render
+
+    with World(seed=0) as w:
+        w.spawn_object("breakfast-cereal-1", "breakfast-cereal", Pose((-0.8, 0.9, 0.95)))
+        w.spawn_object("cup-1", "cup", Pose((-0.74, 1.06, 0.9)))
+        assert render.visible_pixels(w, None, ["cup-1"], width=640, height=480) == {"cup-1": 0}
+        camera = render.camera_showing(w)
+        _, boxes = _figures._shoot(w, camera, list(w.objects))
+        assert sorted(name for name, _ in boxes) == ["breakfast-cereal-1", "cup-1"]
+        path = _figures.write_scene(w, tmp_path / "scene.png", camera, "two objects")
+    assert_picture_shows_something(path)
+    pixels = np.asarray(Image.open(path).convert("RGB"))
+    white_tags = np.all(pixels == 255, axis=2)
+    assert white_tags.sum() > 2 * 200  # two white name tags (the scene has no pure white)
