@@ -707,7 +707,12 @@ def draw_costmap(
         focus += [p[:2] for p in (*alt.region, *alt.failed)]
         focus += [alt.reached[:2]] if alt.reached is not None else []
     if source is not None:
+        builds = engine.builds
         cmap = engine.costmap(source)
+        if engine.builds > builds:  # not cached: built now, in the world after the run
+            note = "costmap rebuilt after the run from the same designator"
+            if source.get("visible-for") is not None:  # ray tests: objects block the view
+                note += " (the objects that block the view may have moved since)"
         spec = cmap.spec
         extent = (
             spec.origin[0],
@@ -736,9 +741,9 @@ def draw_costmap(
                     label=f"cells the other factors keep: '{factor}' removes every one",
                 )
             )
-            note = f"the costmap is empty: {cmap.empty_reason}"
+            note = "; ".join(filter(None, (note, f"the costmap is empty: {cmap.empty_reason}")))
         elif cmap.empty:
-            note = f"the costmap is empty: {cmap.empty_reason}"
+            note = "; ".join(filter(None, (note, f"the costmap is empty: {cmap.empty_reason}")))
         else:
             values = np.asarray(cmap.values(), dtype=float) / float(cmap.max)
             focus += _cells(values, extent)
@@ -754,7 +759,7 @@ def draw_costmap(
             )
             bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
             bar.set_label("costmap value (1 = best; blank = excluded)")
-            if source is not use.location:
+            if source is not use.location and not note:
                 note = "the heat map: the costmap the chosen poses were drawn from"
     else:
         note = "no costmap: the plan gave the poses to try"
