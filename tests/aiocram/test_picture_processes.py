@@ -12,7 +12,8 @@ from typing import Any
 import pytest
 
 from aiocram import _figures, demo
-from aiocram._figures import CostmapRecorder, _Use
+from aiocram._costmap_figure import _Use
+from aiocram._figures import CostmapRecorder
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from aiocram import _figures, demo
+from aiocram import _costmap_figure, _figures, demo
 from aiocram.cli import main
 from aiocram.testing import assert_picture_shows_something, picture_problems, picture_stats
 
@@ -95,12 +95,12 @@ def demo_run(
     """The default demo (seed 1) in this process, every costmap figure drawn here (no
     fork) and read back: what each figure's axes hold, by ``gid``."""
     drawn: list[dict[str, Any]] = []
-    original = _figures.draw_costmap
+    original = _costmap_figure.draw_costmap
 
     def reading(fig: Any, ax: Any, engine: Any, use: Any, **kwargs: Any) -> None:
         original(fig, ax, engine, use, **kwargs)
         source = kwargs.get("source")
-        if source is None and _figures._has_costmap(use.location):
+        if source is None and _costmap_figure._has_costmap(use.location):
             source = use.location
         drawn.append(
             {
@@ -113,7 +113,7 @@ def demo_run(
 
     out = tmp_path_factory.mktemp("demo") / "out"
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(_figures, "draw_costmap", reading)
+        mp.setattr(_costmap_figure, "draw_costmap", reading)
         mp.setattr(demo, "_fork", lambda work: None)
         code = main(["demo", "--seed", "1", "--no-live", "--out", str(out)])
     assert code in (0, 1)  # 1 = an invariant violated: reported, not a crash
