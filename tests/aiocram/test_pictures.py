@@ -221,3 +221,39 @@ def test_the_final_scene_shows_and_names_every_object(tmp_path: Path) -> None:
     pixels = np.asarray(Image.open(path).convert("RGB"))
     white_tags = np.all(pixels == 255, axis=2)
     assert white_tags.sum() > 2 * 200  # two white name tags (the scene has no pure white)
+
+
+def test_a_partial_campaign_labels_each_point_with_its_runs(
+    tmp_path: Path, monkeypatch: Any
+) -> None:
+    from matplotlib.figure import Figure
+
+    from aiocram import campaign
+
+    texts: list[str] = []
+    save = Figure.savefig
+
+    def saving(self: Figure, *args: Any, **kwargs: Any) -> Any:
+        for ax in self.axes:
+            texts.append(ax.get_title())
+            texts.extend(t.get_text() for t in ax.texts)
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", saving)
+    rows = [
+        {
+            "projection": proj,
+            "fault_rate": rate,
+            "runs": runs,
+            "objects": 5 * runs,
+            "delivered": 4 * runs,
+            "success_rate": 0.8,
+            "mean_distance_m": 15.0 + rate,
+        }
+        for proj, rate, runs in ((True, 0.0, 3), (True, 0.1, 2), (False, 0.0, 3), (False, 0.1, 2))
+    ]
+    paths = campaign._plot({"rows": rows}, tmp_path)
+    assert any("2-3 seeds per point" in t for t in texts), texts
+    assert texts.count("n=2") == 4 and texts.count("n=3") == 4  # 2 plots x 2 modes
+    for path in paths:
+        assert_picture_shows_something(path)
