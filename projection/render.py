@@ -70,6 +70,14 @@ def _view(
     return eye, target, up, _OVERVIEW_FOV
 
 
+def _check_size(width: Any, height: Any) -> None:
+    for what, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{what} must be an int, got {value!r}")
+        if not 1 <= value <= 4096:
+            raise ValueError(f"{what} must be in 1..4096, got {value}")
+
+
 def scene(
     world: World,
     path: str | os.PathLike[str],
@@ -85,11 +93,7 @@ def scene(
     ``fov``: vertical field of view in degrees (default 60, or 50 for the robot). The
     world is not changed. Bad sizes or cameras raise TypeError/ValueError; a closed world
     RuntimeError."""
-    for what, value in (("width", width), ("height", height)):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TypeError(f"{what} must be an int, got {value!r}")
-        if not 1 <= value <= 4096:
-            raise ValueError(f"{what} must be in 1..4096, got {value}")
+    _check_size(width, height)
     fov_y = _view(world, camera)[3] if fov is None else float(fov)
     if not 1.0 <= fov_y <= 170.0:
         raise ValueError(f"fov must be in 1..170 degrees, got {fov}")
@@ -111,9 +115,10 @@ def visible_pixels(
 ) -> dict[str, int]:
     """How many pixels of each object in ``names`` the ``camera`` (as :func:`scene`) sees:
     PyBullet's segmentation mask, so an object hidden behind another counts 0. Unknown
-    names raise LookupError. The world is not changed."""
+    names raise LookupError, bad sizes TypeError/ValueError. The world is not changed."""
     import pybullet as pb
 
+    _check_size(width, height)
     bodies = {world.body_of(name): name for name in names}
     client = world.client
     eye, target, up, default_fov = _view(world, camera)
@@ -155,6 +160,7 @@ def camera_showing(
     least visible object best (:func:`visible_pixels` at a quarter of the size; walls,
     furniture, the robot and the objects themselves occlude), ties to the earlier
     direction. Without objects: :data:`OVERVIEW_CAMERA`. The world is not changed."""
+    _check_size(width, height)
     chosen = list(world.objects) if names is None else list(names)
     if not chosen:
         return OVERVIEW_CAMERA
