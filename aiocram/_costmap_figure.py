@@ -153,11 +153,14 @@ def _before_empty(cmap: Any) -> tuple[Any, str] | None:
     xs, ys = spec.grid()
     xs, ys = xs.ravel(), ys.ravel()
     product = np.ones(xs.size)
+    live = np.arange(xs.size)  # a factor is evaluated only where the product is positive
     for f in sorted(cmap.factors, key=lambda f: (f.expensive, -f.score)):
-        after = product * np.clip(np.asarray(f.fn(xs, ys), dtype=float), 0.0, None)
+        values = np.clip(np.asarray(f.fn(xs[live], ys[live]), dtype=float), 0.0, None)
+        after = product[live] * values
         if not (after > 0.0).any():
             return product.reshape(spec.height, spec.width), f.name
-        product = after
+        product[live] = after
+        live = live[after > 0.0]
     return None
 
 

@@ -257,3 +257,23 @@ def test_a_partial_campaign_labels_each_point_with_its_runs(
     assert texts.count("n=2") == 4 and texts.count("n=3") == 4  # 2 plots x 2 modes
     for path in paths:
         assert_picture_shows_something(path)
+
+
+def test_an_empty_costmap_shows_the_cells_before_the_factor_that_emptied_it() -> None:
+    from projection import _costmaps as cm
+
+    costmap = cm.Costmap()
+    cm.add_range(costmap, (0.5, 0.5), 0.4, invert=False)
+    costmap.add("blocked", lambda x, y: np.zeros_like(x), 1.0)
+    assert costmap.empty and "'blocked'" in str(costmap.empty_reason)
+    before = _costmap_figure._before_empty(costmap)
+    assert before is not None
+    layer, factor = before
+    assert factor == "blocked"
+    xs, ys = costmap.spec.grid()
+    inside = np.hypot(xs - 0.5, ys - 0.5) <= 0.4
+    assert np.array_equal(layer > 0, inside)  # the disc the range factor kept
+
+    kept = cm.Costmap()
+    cm.add_range(kept, (0.5, 0.5), 0.4, invert=False)
+    assert _costmap_figure._before_empty(kept) is None  # nothing empties it
