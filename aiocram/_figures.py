@@ -9,19 +9,19 @@ moved and the robot stands elsewhere) and drawn at the end:
   last one for a moment, renders it from the robot's head camera, projects the detected
   objects' bounding boxes into the image and outlines and names them.
 - :class:`CostmapRecorder`: when the real robot starts navigating to a costmap location
-  (``visible-for`` / ``reachable-for``), it notes the robot's pose and the objects as the
-  robot believed them then; at the end :func:`costmap_figure` draws, in metres, the
-  kitchen outline, the costmap with a colour bar, the objects where they were, the robot
-  where it started, every pose of that location chain the plan tried (and whether the
-  navigation from it failed) and the pose it chose.
+  (``visible-for`` / ``reachable-for``, or an ``(among ...)`` location whose poses a plan
+  chose, e.g. by imagining), it notes the robot's pose and the objects as the robot
+  believed them then, and it notes every imagined navigation's poses; at the end it
+  finds the costmap each location's poses rest on and the imagined alternatives of the
+  decision it ran inside, and draws :func:`aiocram._costmap_figure.costmap_figure`.
+
+:func:`write_scene` draws the final scene: the world from a camera, every object in view
+named.
 """
 
 from __future__ import annotations
 
-import math
-import textwrap
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +29,25 @@ import numpy as np
 
 import cpl
 
+from ._costmap_figure import (
+    _Alternative,
+    _has_costmap,
+    _Use,
+    _xyyaw,
+    costmap_figure,
+    draw_furniture,
+    kitchen_boxes,
+)
 from ._views import imagined
 
-__all__ = ["CameraRecorder", "CostmapRecorder", "costmap_figure"]
+__all__ = [
+    "CameraRecorder",
+    "CostmapRecorder",
+    "costmap_figure",
+    "draw_furniture",
+    "kitchen_boxes",
+    "write_scene",
+]
 
 _VIEW_SIZE = (640, 480)
 
@@ -49,6 +65,71 @@ def _names_in(result: Any) -> list[str]:
         if isinstance(name, str):
             names.append(name)
     return names
+
+
+def _shoot(
+    world: Any, camera: Any, names: Sequence[str]
+) -> tuple[np.ndarray, list[tuple[str, tuple[float, float, float, float]]]]:
+    """Render ``world`` from ``camera`` (:func:`projection.render.camera_image`) and
+    project each named object's bounding box into the picture: the pixels and, per object
+    in front of the camera and inside the frame, ``(name, (x0, y0, x1, y1))``."""
+    from projection import render
+
+    width, height = _VIEW_SIZE
+    pixels, view, proj = render.camera_image(world, camera, width, height)
+    m = _matrix(proj) @ _matrix(view)
+    boxes = []
+    for name in names:
+        lo, hi = world.object_aabb(name)
+        corners = np.array(
+            [[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        )
+        clip = corners @ m.T
+        if np.any(clip[:, 3] <= 1e-6):
+            continue  # partly behind the camera
+        ndc = clip[:, :3] / clip[:, 3:4]
+        xs = (ndc[:, 0] + 1.0) / 2.0 * width
+        ys = (1.0 - ndc[:, 1]) / 2.0 * height
+        box = (
+            float(np.clip(xs.min(), 0, width - 1)),
+            float(np.clip(ys.min(), 0, height - 1)),
+            float(np.clip(xs.max(), 0, width - 1)),
+            float(np.clip(ys.max(), 0, height - 1)),
+        )
+        if box[2] - box[0] >= 1 and box[3] - box[1] >= 1:
+            boxes.append((name, box))
+    return pixels, boxes
+
+
+def _tag(draw: Any, x: float, y: float, text: str, taken: list[tuple[float, ...]]) -> None:
+    """A name tag centred above (x, y), moved up past the tags already drawn."""
+    tw, th = 7 * len(text) + 8, 16
+    x0 = min(max(x - tw / 2, 0), _VIEW_SIZE[0] - tw)
+    y0 = max(y - th - 4, 0)
+    while any(x0 < t[2] and t[0] < x0 + tw and y0 < t[3] and t[1] < y0 + th for t in taken):
+        y0 -= th + 2
+    y0 = max(y0, 0)
+    taken.append((x0, y0, x0 + tw, y0 + th))
+    draw.rectangle((x0, y0, x0 + tw, y0 + th), fill=(255, 255, 255), outline=(20, 20, 20))
+    draw.text((x0 + 4, y0 + 2), text, fill=(0, 0, 0))
+
+
+def write_scene(world: Any, path: Path, camera: Any, caption: str) -> Path:
+    """The PNG of ``world`` from ``camera`` with every object in view named (a tag above
+    it) and ``caption`` on a bar at the bottom, followed by how many objects are in view."""
+    from PIL import Image, ImageDraw
+
+    image, boxes = _shoot(world, camera, list(world.objects))
+    img = Image.fromarray(image, "RGB")
+    draw = ImageDraw.Draw(img)
+    taken: list[tuple[float, ...]] = []
+    for name, (x0, y0, x1, _y1) in sorted(boxes, key=lambda b: -b[1][1]):
+        _tag(draw, (x0 + x1) / 2, y0, name, taken)
+    draw.rectangle((0, img.height - 20, img.width, img.height), fill=(0, 0, 0))
+    counted = f"{len(boxes)} of {len(world.objects)} objects in view, each named"
+    draw.text((6, img.height - 16), f"{caption}: {counted}", fill=(255, 255, 255))
+    img.save(path, format="PNG")
+    return path
 
 
 class CameraRecorder(cpl.Instrument):
@@ -82,37 +163,7 @@ class CameraRecorder(cpl.Instrument):
     def _shoot(
         self, names: list[str]
     ) -> tuple[np.ndarray, list[tuple[str, tuple[float, float, float, float]]]]:
-        from projection import render
-
-        width, height = _VIEW_SIZE
-        pixels, view, proj = render.camera_image(self.world, "robot", width, height)
-        m = _matrix(proj) @ _matrix(view)
-        boxes = []
-        for name in names:
-            lo, hi = self.world.object_aabb(name)
-            corners = np.array(
-                [
-                    [x, y, z, 1.0]
-                    for x in (lo[0], hi[0])
-                    for y in (lo[1], hi[1])
-                    for z in (lo[2], hi[2])
-                ]
-            )
-            clip = corners @ m.T
-            if np.any(clip[:, 3] <= 1e-6):
-                continue  # partly behind the camera
-            ndc = clip[:, :3] / clip[:, 3:4]
-            xs = (ndc[:, 0] + 1.0) / 2.0 * width
-            ys = (1.0 - ndc[:, 1]) / 2.0 * height
-            box = (
-                float(np.clip(xs.min(), 0, width - 1)),
-                float(np.clip(ys.min(), 0, height - 1)),
-                float(np.clip(xs.max(), 0, width - 1)),
-                float(np.clip(ys.max(), 0, height - 1)),
-            )
-            if box[2] - box[0] >= 1 and box[3] - box[1] >= 1:
-                boxes.append((name, box))
-        return pixels, boxes
+        return _shoot(self.world, "robot", names)
 
     def write(self, path: Path) -> Path:
         """The PNG: the last detection's image with each detected object outlined and
@@ -147,21 +198,9 @@ class CameraRecorder(cpl.Instrument):
         return path
 
 
-@dataclass
-class _Use:
-    """One location chain the real robot navigated to, as it was when it first did."""
-
-    location: Any  # the chain's first designator
-    object: str  # what the location is for ("spoon-1", "bowl", ...)
-    purpose: str  # "visible" (to see the object) or "reachable" (to reach it)
-    step: str  # the plan step that navigated ("search-for-object", "fetch", "deliver")
-    robot: tuple[float, float, float]  # x, y, yaw where the robot stood
-    objects: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]  # belief AABBs then
-    tries: list[tuple[tuple[float, float, float], bool]] = field(default_factory=list)
-
-
-def _xyyaw(pose: Any) -> tuple[float, float, float]:
-    return float(pose.position[0]), float(pose.position[1]), float(pose.yaw)
+def _plain(entries: Sequence[str]) -> tuple[str, ...]:
+    """Task path entries without their ``#N`` repeat suffixes."""
+    return tuple(e.split("#")[0] for e in entries)
 
 
 class CostmapRecorder(cpl.Instrument):
@@ -176,6 +215,12 @@ class CostmapRecorder(cpl.Instrument):
         #: :meth:`recording`); those that did not become solutions were rejected
         self.candidates: dict[int, list[tuple[float, float, float]]] = {}
         self.by_text: dict[str, list[tuple[float, float, float]]] = {}
+        #: the costmap designators (chain firsts) the validator saw, by id: where the
+        #: poses of an ``(among ...)`` location without ``(then ...)`` were drawn from
+        self.designators: dict[int, Any] = {}
+        #: imagined navigations: task -> the poses tried there and whether each succeeded
+        self.imagined: dict[Any, list[tuple[tuple[float, float, float], bool]]] = {}
+        self._imagined_pending: dict[int, tuple[Any, Any]] = {}
 
     def recording(self, rules: Any) -> Any:
         """A child of ``rules`` whose first location validator notes every candidate pose
@@ -190,6 +235,8 @@ class CostmapRecorder(cpl.Instrument):
                 xyyaw = _xyyaw(pose)
                 self.candidates.setdefault(id(first), []).append(xyyaw)
                 self.by_text.setdefault(repr(first), []).append(xyyaw)
+                if _has_costmap(first):
+                    self.designators[id(first)] = first
             return "unknown"
 
         child.register_location_validator(note, -1000)
@@ -200,7 +247,7 @@ class CostmapRecorder(cpl.Instrument):
         from executive import action_of
 
         action = action_of(task)
-        if action is None or action.type != "navigating" or imagined(task):
+        if action is None or action.type != "navigating":
             return None
         loc = action.get("location")
         if loc is None or not hasattr(loc, "first") or loc.get("pose") is not None:
@@ -208,6 +255,9 @@ class CostmapRecorder(cpl.Instrument):
         return loc
 
     def task_status_changed(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
+        if imagined(task):
+            self._imagined_status(task, old, new)
+            return
         if new is cpl.Status.RUNNING and old is cpl.Status.CREATED:
             loc = self._location(task)
             if loc is None:
@@ -224,6 +274,90 @@ class CostmapRecorder(cpl.Instrument):
             member = loc.newest_effective() if hasattr(loc, "newest_effective") else None
             if member is not None:
                 use.tries.append((_xyyaw(member.reference()), new is cpl.Status.SUCCEEDED))
+
+    def _imagined_status(self, task: cpl.Task, old: cpl.Status, new: cpl.Status) -> None:
+        """An imagined navigation: where it tried to stand and whether it got there (the
+        costmap figures show the imagined alternatives next to the real choice)."""
+        if new is cpl.Status.RUNNING and old is cpl.Status.CREATED:
+            loc = self._location(task)
+            if loc is not None:
+                self._imagined_pending[id(task)] = (task, loc)
+        elif new.dead and id(task) in self._imagined_pending:
+            _, loc = self._imagined_pending.pop(id(task))
+            member = loc.newest_effective() if hasattr(loc, "newest_effective") else None
+            if member is not None:
+                tried = (_xyyaw(member.reference()), new is cpl.Status.SUCCEEDED)
+                self.imagined.setdefault(task, []).append(tried)
+
+    def alternatives(self, use: _Use) -> list[_Alternative]:
+        """The imagined alternatives of the decision ``use``'s first navigation ran inside
+        (none outside one): the nearest enclosing task annotated with what was imagined,
+        a transport's ``real-run`` (:class:`plans.reasoning.RunAssessment` records) or a
+        search's ``chosen-viewpoint-K`` (:class:`plans.imagining.Imagined` records); each
+        record's own subtree (its ``assessment`` / ``imagined`` annotation is that very
+        record) holds the imagined navigation at the same place in the plan. The one the
+        real robot went on with is the one whose first pose is the real location's."""
+        from plans.imagining import Imagined
+        from plans.reasoning import RunAssessment
+
+        task = use.task
+        decision = task.parent if task is not None else None
+        records: tuple[Any, ...] = ()
+        key = ""
+        while decision is not None:
+            notes = decision.annotations or {}
+            runs, looks = notes.get("imagined"), notes.get("alternatives")
+            if isinstance(runs, tuple) and runs and isinstance(runs[0], RunAssessment):
+                records, key = runs, "assessment"
+                break
+            if isinstance(looks, tuple) and looks and isinstance(looks[0], Imagined):
+                records, key = looks, "imagined"
+                break
+            decision = decision.parent
+        if decision is None or decision.parent is None:
+            return []
+        where = _plain(task.path[len(decision.path) :])
+        real_first = _among(use.location)
+        out = []
+        for sibling in decision.parent.children:
+            record: Any = (sibling.annotations or {}).get(key)
+            if record is None or not any(record is r for r in records):
+                continue
+            navs = [
+                t
+                for t in self.imagined
+                if tuple(t.path[: len(sibling.path)]) == tuple(sibling.path)
+                and _plain(t.path[len(sibling.path) :]) == where
+            ]
+            if not navs:
+                continue
+            tries = [tried for t in navs for tried in self.imagined[t]]
+            first_loc = self._location(navs[0])
+            region = _among(first_loc.first()) if first_loc is not None else []
+            reached = next((p for p, ok in reversed(tries) if ok), None)
+            if isinstance(record, RunAssessment):
+                verdict = record.verdict()
+            else:  # a viewpoint: its own pose first, then every other one as a fallback
+                region = region[:1]
+                if record.succeeded:
+                    verdict = f"saw {record.value} search-region points"
+                else:
+                    verdict = f"fails ({record.outcome})"
+            if isinstance(record, RunAssessment):  # the real run got its parameters
+                chosen = record.params is (decision.annotations or {}).get("projected")
+            else:  # the real location starts with the alternative's own pose
+                chosen = bool(region and real_first and _close(region[0], real_first[0]))
+            out.append(
+                _Alternative(
+                    str(record.name),
+                    verdict,
+                    region,
+                    reached,
+                    [p for p, ok in tries if not ok],
+                    chosen,
+                )
+            )
+        return out
 
     def _new_use(self, task: cpl.Task, first: Any) -> _Use:
         purpose, obj = "location", "?"
@@ -250,7 +384,7 @@ class CostmapRecorder(cpl.Instrument):
         for name in self.world.objects:
             lo, hi = self.world.object_aabb(name)
             boxes[name] = (tuple(lo), tuple(hi))
-        return _Use(first, obj, purpose, step, _xyyaw(self.world.robot_pose()), boxes)
+        return _Use(first, obj, purpose, step, _xyyaw(self.world.robot_pose()), boxes, task=task)
 
     def figures(
         self, engine: Any, out_dir: Path, limit: int = 6, part: tuple[int, int] = (0, 1)
@@ -283,11 +417,53 @@ class CostmapRecorder(cpl.Instrument):
                     repr(use.location), []
                 )
                 paths.append(
-                    costmap_figure(engine, use, out_dir / name, number=k, candidates=tried)
+                    costmap_figure(
+                        engine,
+                        use,
+                        out_dir / name,
+                        number=k,
+                        candidates=tried,
+                        alternatives=self.alternatives(use),
+                        source=self.costmap_designator(use.location),
+                    )
                 )
             except Exception as exc:  # reported, and the demo goes on
                 print(f"(costmap {name} not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)
         return paths
+
+    def costmap_designator(self, location: Any) -> Any:
+        """The designator whose costmap ``location``'s poses come from: itself if it has a
+        costmap key; for ``(among ...)`` its ``(then ...)`` fallback, or else the costmap
+        designator the validator saw produce its first pose (a viewpoint's pool is drawn
+        from the search's ``visible-for`` location); ``None`` if there is none."""
+        seen: set[int] = set()
+        while location is not None and id(location) not in seen:
+            seen.add(id(location))
+            if _has_costmap(location):
+                return location
+            fallback = location.get("then") if hasattr(location, "get") else None
+            if fallback is None:
+                break
+            location = fallback.first() if hasattr(fallback, "first") else fallback
+        poses = _among(location)
+        if not poses:
+            return None
+        for key, designator in reversed(self.designators.items()):
+            if any(_close(poses[0], p) for p in self.candidates.get(key, ())):
+                return designator
+        return None
+
+
+def _among(location: Any) -> list[tuple[float, float, float]]:
+    """The poses of an ``(among ...)`` location in the map frame (none otherwise)."""
+    poses = location.get("among") if location is not None and hasattr(location, "get") else None
+    if not isinstance(poses, tuple):
+        return []
+    return [_xyyaw(p) for p in poses if getattr(p, "frame", "map") == "map"]
+
+
+def _close(p: Sequence[float], q: Sequence[float]) -> bool:
+    return abs(p[0] - q[0]) < 1e-4 and abs(p[1] - q[1]) < 1e-4
 
 
 def _object_of_step(task: Any) -> str:
@@ -308,264 +484,3 @@ def _slug(text: str) -> str:
 
 
 _STEPS = {"search-for-object": "search", "transport": "transport"}
-
-_PURPOSE = {
-    "visible": "where to stand to see",
-    "reachable": "where to stand to reach",
-    "location": "where to stand for",
-}
-
-
-def kitchen_boxes(world: Any) -> list[tuple[Sequence[float], Sequence[float]]]:
-    """The kitchen furniture's axis-aligned boxes ``(lo, hi)`` in ``world``."""
-    from projection import _costmaps as cmod
-
-    return [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
-
-
-def draw_furniture(
-    ax: Any, boxes: Iterable[tuple[Sequence[float], Sequence[float]]], lw: float = 1.0
-) -> None:
-    """The furniture's footprints on a floor-plan axes (grey, under everything else)."""
-    from matplotlib.patches import Rectangle
-
-    for lo, hi in boxes:
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor=(0.85, 0.85, 0.85),
-                edgecolor="0.35",
-                lw=lw,
-                zorder=0,
-            )
-        )
-
-
-def costmap_figure(
-    engine: Any,
-    use: _Use,
-    path: Path,
-    *,
-    number: int = 1,
-    candidates: list[tuple[float, float, float]] = (),  # type: ignore[assignment]
-) -> Path:
-    """One costmap figure (see the module docstring) written to ``path``; ``candidates``:
-    every pose the location pipeline generated for the chain (those that are not among
-    its solutions were rejected by a validator)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Polygon, Rectangle
-
-    cmap = engine.costmap(use.location)
-    spec = cmap.spec
-    values = np.asarray(cmap.values(), dtype=float)
-    top = float(cmap.max or 1.0)
-    world = engine.world
-    boxes = kitchen_boxes(world)
-    x0 = min(lo[0] for lo, _ in boxes) - 0.3
-    x1 = max(hi[0] for _, hi in boxes) + 0.3
-    y0 = min(lo[1] for lo, _ in boxes) - 0.3
-    y1 = max(hi[1] for _, hi in boxes) + 0.3
-
-    fig, ax = plt.subplots(figsize=(8.0, 7.6), dpi=100)
-    extent = (
-        spec.origin[0],
-        spec.origin[0] + spec.width * spec.resolution,
-        spec.origin[1],
-        spec.origin[1] + spec.height * spec.resolution,
-    )
-    shown = np.ma.masked_less_equal(values / top, 0.0)
-    image = ax.imshow(
-        shown, origin="lower", extent=extent, cmap="viridis", vmin=0.0, vmax=1.0, zorder=1
-    )
-    bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
-    bar.set_label("costmap value (1 = best; blank = excluded)")
-    draw_furniture(ax, boxes, lw=1.2)
-    for name, (lo, hi) in use.objects.items():
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor="tab:blue",
-                edgecolor="navy",
-                lw=1.0,
-                zorder=3,
-            )
-        )
-        ax.annotate(
-            name,
-            ((lo[0] + hi[0]) / 2, hi[1]),
-            xytext=(0, 3),
-            textcoords="offset points",
-            ha="center",
-            fontsize=8,
-            color="navy",
-            zorder=6,
-        )
-    rx, ry, ryaw = use.robot
-    half = 0.33  # the PR2 base footprint is about 0.66 m square
-    c, s = math.cos(ryaw), math.sin(ryaw)
-    corners = [
-        (rx + c * dx - s * dy, ry + s * dx + c * dy)
-        for dx, dy in ((half, half), (-half, half), (-half, -half), (half, -half))
-    ]
-    ax.add_patch(
-        Polygon(
-            corners, closed=True, facecolor="none", edgecolor="black", lw=1.5, ls="--", zorder=4
-        )
-    )
-    ax.annotate(
-        "",
-        (rx + 0.45 * c, ry + 0.45 * s),
-        (rx, ry),
-        arrowprops={"arrowstyle": "->", "color": "black", "lw": 1.5},
-        zorder=5,
-    )
-    ax.annotate(
-        "robot (before)",
-        (rx, ry - half),
-        xytext=(0, -12),
-        textcoords="offset points",
-        ha="center",
-        fontsize=8,
-        zorder=6,
-    )
-    inner = use.location.get("location")
-    target = inner.get("pose") if inner is not None and hasattr(inner, "get") else None
-    if target is not None and getattr(target, "frame", "map") == "map":
-        tx, ty = float(target.position[0]), float(target.position[1])
-        ax.scatter([tx], [ty], marker="D", s=70, color="magenta", edgecolor="black", zorder=8)
-        ax.annotate(
-            f"target: {use.object}",
-            (tx, ty),
-            xytext=(6, -12),
-            textcoords="offset points",
-            fontsize=8,
-            color="purple",
-            zorder=8,
-        )
-    failed = [p for p, ok in use.tries if not ok]
-    good = [p for p, ok in use.tries if ok]
-    tried = {(round(p[0], 3), round(p[1], 3)) for p, _ in use.tries}
-    accepted = [_xyyaw(m.reference()) for m in use.location.chain() if m.effective]
-    sampled = [p for p in accepted if (round(p[0], 3), round(p[1], 3)) not in tried]
-    solutions = {(round(p[0], 4), round(p[1], 4)) for p in accepted}
-    rejected = [p for p in candidates if (round(p[0], 4), round(p[1], 4)) not in solutions]
-    if rejected:
-        ax.scatter(
-            [p[0] for p in rejected],
-            [p[1] for p in rejected],
-            marker="x",
-            s=14,
-            color="0.45",
-            lw=0.8,
-            zorder=4,
-        )
-    if sampled:
-        ax.scatter(
-            [p[0] for p in sampled],
-            [p[1] for p in sampled],
-            marker="o",
-            s=18,
-            facecolor="white",
-            edgecolor="0.2",
-            zorder=5,
-        )
-    if failed:
-        ax.scatter(
-            [p[0] for p in failed],
-            [p[1] for p in failed],
-            marker="x",
-            s=60,
-            color="red",
-            lw=2,
-            zorder=6,
-        )
-    if good:
-        gx, gy, gyaw = good[-1]
-        ax.scatter([gx], [gy], marker="*", s=260, color="orange", edgecolor="black", zorder=7)
-        ax.annotate(
-            "",
-            (gx + 0.3 * math.cos(gyaw), gy + 0.3 * math.sin(gyaw)),
-            (gx, gy),
-            arrowprops={"arrowstyle": "->", "color": "darkorange", "lw": 2},
-            zorder=7,
-        )
-    legend = [
-        Rectangle(
-            (0, 0), 1, 1, facecolor=(0.85, 0.85, 0.85), edgecolor="0.35", label="kitchen furniture"
-        ),
-        Rectangle((0, 0), 1, 1, facecolor="tab:blue", label="objects (as believed then)"),
-        Line2D([], [], color="black", ls="--", label="robot base before navigating"),
-        Line2D(
-            [],
-            [],
-            marker="D",
-            ls="",
-            color="magenta",
-            markeredgecolor="black",
-            label=f"target: where {use.object} is (to see/reach)",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="*",
-            ls="",
-            color="orange",
-            markeredgecolor="black",
-            markersize=14,
-            label="pose chosen (navigation succeeded)",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="x",
-            ls="",
-            color="red",
-            markersize=9,
-            mew=2,
-            label="pose tried, navigation failed",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="o",
-            ls="",
-            markerfacecolor="white",
-            markeredgecolor="0.2",
-            label="pose accepted, not driven to",
-        ),
-        Line2D(
-            [],
-            [],
-            marker="x",
-            ls="",
-            color="0.45",
-            mew=0.8,
-            label="sample rejected (collision, reach, view...)",
-        ),
-    ]
-    ax.legend(handles=legend, loc="upper left", fontsize=7.5, framealpha=0.9)
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(y0, y1)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m, map frame)")
-    ax.set_ylabel("y (m, map frame)")
-    ax.grid(True, lw=0.3, alpha=0.5)
-    title = f"costmap {number}: {_PURPOSE[use.purpose]} {use.object} ({use.step})"
-    subtitle = textwrap.fill(use.location.short(), 95)
-    ax.set_title(f"{title}\n{subtitle}", fontsize=9)
-    fig.tight_layout()
-    # the layout is done: without an engine, savefig draws once instead of twice (the same
-    # pixels); compress_level 1 encodes the PNG several times faster (pixels unchanged,
-    # the file ~20 % larger)
-    fig.set_layout_engine("none")
-    fig.savefig(path, format="png", pil_kwargs={"compress_level": 1})
-    plt.close(fig)
-    return path

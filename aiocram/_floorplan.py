@@ -29,7 +29,7 @@ from typing import Any
 
 import cpl
 
-from ._figures import draw_furniture, kitchen_boxes
+from ._costmap_figure import draw_furniture, kitchen_boxes
 from ._views import imagined
 
 __all__ = ["RouteRecorder", "floor_plan_figure"]

@@ -530,7 +530,20 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
 _CRASHED = {"claimed": False, "delivered": False, "where": "crashed run"}
 
 
+def _wilson(successes: int, total: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval (95 % by default) of a success rate."""
+    if total <= 0:
+        return 0.0, 0.0
+    p = successes / total
+    centre = (p + z * z / (2 * total)) / (1 + z * z / total)
+    half = z * ((p * (1 - p) / total + z * z / (4 * total * total)) ** 0.5) / (1 + z * z / total)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
 def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
+    """The success-rate and distance plots: per fault rate, with and without projection;
+    the title says how many runs (seeds) each point rests on, each point is labelled
+    with its run count when they differ, and the success rate has its 95 % interval."""
     if not summary["rows"]:
         return []  # no run finished: no curve to draw
     import matplotlib
@@ -538,27 +551,58 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    rows_all = summary["rows"]
+    runs = sorted({int(r["runs"]) for r in rows_all})
+    objects = sorted({int(r["objects"]) for r in rows_all})
+    if len(runs) == 1:
+        basis = f"{runs[0]} seeds per point"
+        if len(objects) == 1:
+            basis += f" ({objects[0]} objects)"
+    else:
+        basis = f"{runs[0]}-{runs[-1]} seeds per point (n at each point)"
     paths = []
     for key, label, fname in (
         ("success_rate", "object success rate", "success_rate.png"),
         ("mean_distance_m", "mean base distance driven (m)", "distance.png"),
     ):
-        fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+        fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=100)
         for proj in (True, False):
-            rows = [r for r in summary["rows"] if r["projection"] is proj]
+            rows = [r for r in rows_all if r["projection"] is proj]
             if not rows:
                 continue
-            ax.plot(
-                [r["fault_rate"] for r in rows],
-                [r[key] for r in rows],
-                marker="o",
-                label="with projection" if proj else "without projection",
-            )
-        ax.set_xlabel("low-level fault rate")
+            xs = [r["fault_rate"] for r in rows]
+            ys = [r[key] for r in rows]
+            name = "with projection" if proj else "without projection"
+            if key == "success_rate":
+                bounds = [_wilson(int(r["delivered"]), int(r["objects"])) for r in rows]
+                err = [
+                    [y - lo for y, (lo, _) in zip(ys, bounds, strict=True)],
+                    [hi - y for y, (_, hi) in zip(ys, bounds, strict=True)],
+                ]
+                ax.errorbar(
+                    xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} (95 % interval)"
+                )
+            else:
+                ax.plot(xs, ys, marker="o", label=name)
+            if len(runs) > 1:
+                for x, y, r in zip(xs, ys, rows, strict=True):
+                    ax.annotate(
+                        f"n={r['runs']}",
+                        (x, y),
+                        xytext=(4, 4),
+                        textcoords="offset points",
+                        fontsize=7,
+                    )
+        ax.set_xticks(sorted({r["fault_rate"] for r in rows_all}))
+        ax.set_xlabel("low-level fault rate (each motion fails with this probability)")
         ax.set_ylabel(label)
-        ax.set_ylim(0.0, 1.02 if key == "success_rate" else None)
+        if key == "success_rate":
+            ax.set_ylim(0.0, 1.02)
+        else:
+            ax.set_ylim(0.0, None)
+        ax.set_title(f"{label.split(' (')[0]}: {basis}", fontsize=10)
         ax.grid(True, alpha=0.3)
-        ax.legend()
+        ax.legend(loc="lower left")
         fig.tight_layout()
         path = out / fname
         fig.savefig(path)

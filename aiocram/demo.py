@@ -8,8 +8,9 @@ perception, injected faults). Before each transport the robot imagines fetch-and
 for real (``--no-projection`` turns that off).
 
 Outputs (``--out DIR``): ``log.jsonl`` (the event log; ``aiocram show DIR/log.jsonl``),
-``final_scene.png`` (the true world at the end), ``robot_view.png`` (what the head camera
-sees) and ``costmap-*.png`` (the base-pose costmaps the real run used).
+``final_scene.png`` (the true world at the end, from a camera that shows every object),
+``robot_view.png`` (what the head camera sees) and ``costmap-*.png`` (the base-pose
+costmaps the real run used, with the alternatives it imagined).
 
 :func:`run_demo_once` is the headless variant the robustness campaign runs.
 """
@@ -477,6 +478,8 @@ def _write_pictures(
     cannot be drawn is reported on stderr: a picture never fails the demo."""
     from projection import render
 
+    from ._figures import write_scene
+
     engine = engine_box[0] if engine_box else None
     # every other costmap figure is drawn by a forked copy of this process meanwhile (the
     # same pictures in about half the wall time on two cores)
@@ -486,7 +489,10 @@ def _write_pictures(
         child = _fork(lambda: costmaps.figures(engine, outputs.staging, part=(1, 2)), adopt)
     try:
         try:
-            render.scene(true_world, outputs.path("final_scene.png"))
+            # from where every object shows (the fixed overview hid some behind others)
+            shot = render.camera_showing(true_world)
+            caption = "the true world at the end of the run"
+            write_scene(true_world, outputs.path("final_scene.png"), shot, caption)
             camera.write(outputs.path("robot_view.png"))
         except Exception as exc:  # reported; the run's outcome stands
             print(f"(pictures not drawn: {type(exc).__name__}: {exc})", file=sys.stderr)

@@ -17,7 +17,7 @@ from PIL import Image
 if TYPE_CHECKING:
     from projection._world import World
 
-__all__ = ["OVERVIEW_CAMERA", "camera_image", "scene"]
+__all__ = ["OVERVIEW_CAMERA", "camera_image", "camera_showing", "scene", "visible_pixels"]
 
 #: The default camera ``(eye, target)`` in ``map``: the kitchen from above-behind the robot's
 #: start pose, looking at the counter.
@@ -70,6 +70,14 @@ def _view(
     return eye, target, up, _OVERVIEW_FOV
 
 
+def _check_size(width: Any, height: Any) -> None:
+    for what, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{what} must be an int, got {value!r}")
+        if not 1 <= value <= 4096:
+            raise ValueError(f"{what} must be in 1..4096, got {value}")
+
+
 def scene(
     world: World,
     path: str | os.PathLike[str],
@@ -85,11 +93,7 @@ def scene(
     ``fov``: vertical field of view in degrees (default 60, or 50 for the robot). The
     world is not changed. Bad sizes or cameras raise TypeError/ValueError; a closed world
     RuntimeError."""
-    for what, value in (("width", width), ("height", height)):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TypeError(f"{what} must be an int, got {value!r}")
-        if not 1 <= value <= 4096:
-            raise ValueError(f"{what} must be in 1..4096, got {value}")
+    _check_size(width, height)
     fov_y = _view(world, camera)[3] if fov is None else float(fov)
     if not 1.0 <= fov_y <= 170.0:
         raise ValueError(f"fov must be in 1..170 degrees, got {fov}")
@@ -98,6 +102,99 @@ def scene(
     out.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(pixels, "RGB").save(out, format="PNG")
     return out
+
+
+def visible_pixels(
+    world: World,
+    camera: Camera,
+    names: Sequence[str],
+    *,
+    width: int = 160,
+    height: int = 120,
+    fov: float | None = None,
+) -> dict[str, int]:
+    """How many pixels of each object in ``names`` the ``camera`` (as :func:`scene`) sees:
+    PyBullet's segmentation mask, so an object hidden behind another counts 0. Unknown
+    names raise LookupError, bad sizes TypeError/ValueError. The world is not changed."""
+    import pybullet as pb
+
+    _check_size(width, height)
+    bodies = {world.body_of(name): name for name in names}
+    client = world.client
+    eye, target, up, default_fov = _view(world, camera)
+    fov_y = default_fov if fov is None else float(fov)
+    view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
+    proj = pb.computeProjectionMatrixFOV(fov_y, width / height, _NEAR, _FAR, physicsClientId=client)
+    _, _, _, _, seg = pb.getCameraImage(
+        width,
+        height,
+        view,
+        proj,
+        renderer=pb.ER_TINY_RENDERER,
+        shadow=0,
+        physicsClientId=client,
+    )
+    ids, counts = np.unique(np.asarray(seg, dtype=np.int64).reshape(-1), return_counts=True)
+    seen = dict(zip(ids.tolist(), counts.tolist(), strict=True))
+    return {name: int(seen.get(body, 0)) for body, name in bodies.items()}
+
+
+#: The elevation (degrees above the horizon) and the directions (degrees, map frame) from
+#: which :func:`camera_showing` looks at the objects.
+SHOWING_ELEVATION = 55.0
+SHOWING_AZIMUTHS = tuple(range(0, 360, 30))
+
+
+def camera_showing(
+    world: World,
+    names: Sequence[str] | None = None,
+    *,
+    width: int = 640,
+    height: int = 480,
+    fov: float | None = None,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """A camera ``(eye, target)`` for :func:`scene` that shows every object in ``names``
+    (default: all of the world's objects): it looks down at :data:`SHOWING_ELEVATION`
+    degrees at the centre of their bounding box, from far enough that the box fits the
+    view, and from the direction (one of :data:`SHOWING_AZIMUTHS`) whose picture shows the
+    least visible object best (:func:`visible_pixels` at a quarter of the size; walls,
+    furniture, the robot and the objects themselves occlude), ties to the earlier
+    direction. Without objects: :data:`OVERVIEW_CAMERA`. The world is not changed."""
+    _check_size(width, height)
+    chosen = list(world.objects) if names is None else list(names)
+    if not chosen:
+        return OVERVIEW_CAMERA
+    boxes = [world.object_aabb(name) for name in chosen]
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    centre = (lo + hi) / 2.0
+    radius = max(float(np.linalg.norm(hi - lo)) / 2.0, 0.3) + 0.15
+    fov_y = _OVERVIEW_FOV if fov is None else float(fov)
+    half = math.radians(min(fov_y, fov_y * width / height)) / 2.0
+    distance = max(radius / math.tan(half), 1.2)
+    elevation = math.radians(SHOWING_ELEVATION)
+    best: tuple[int, int] | None = None
+    camera = OVERVIEW_CAMERA
+    target = (float(centre[0]), float(centre[1]), float(centre[2]))
+    for azimuth in SHOWING_AZIMUTHS:
+        a = math.radians(azimuth)
+        eye = (
+            target[0] + distance * math.cos(elevation) * math.cos(a),
+            target[1] + distance * math.cos(elevation) * math.sin(a),
+            target[2] + distance * math.sin(elevation),
+        )
+        seen = visible_pixels(
+            world,
+            (eye, target),
+            chosen,
+            width=max(width // 4, 1),
+            height=max(height // 4, 1),
+            fov=fov_y,
+        )
+        score = (min(seen.values()), sum(seen.values()))
+        if best is None or score > best:
+            best, camera = score, (eye, target)
+    return camera
 
 
 # ----------------------------------------------------------------------------- costmap
@@ -113,24 +210,34 @@ def costmap(
     samples: int = 0,
     scale: int = 5,
 ) -> Path:
-    """Write a PNG of a location designator's costmap over the kitchen's floor plan: link
-    footprints (AABBs) in grey, objects in blue, the normalised costmap as a heat map, the
-    chain's solutions so far as black dots with a heading tick, and ``samples`` fresh
-    samples (a private generator seeded 0: the chain and ``world.rng`` are not touched) as
-    green dots. The view covers the kitchen; ``scale`` is pixels per costmap cell.
+    """Write a PNG of a location designator's costmap over the kitchen's floor plan, in
+    metres (x and y axes in the ``map`` frame): link footprints (AABBs) in grey, objects
+    in blue and named, the normalised costmap as a heat map with a colour bar (blank:
+    excluded cells), the chain's solutions so far as black dots with a heading arrow, and
+    ``samples`` fresh samples (a private generator seeded 0: the chain and ``world.rng``
+    are not touched) as green dots; a legend names each. The view covers the kitchen;
+    ``scale`` is about how many pixels one costmap cell takes.
 
     The costmap comes from the location rules of the current environment
     (:func:`projection._locations.location_rules`), so a designator resolved there is drawn
     with its cached map; with ``world=`` (and no such rules for it) a fresh map is built.
     Raises TypeError without either, and :class:`executive.DesignatorError` when the
-    designator has no costmap. Returns the path written.
+    designator has no costmap. An empty costmap is drawn with the reason in the title.
+    Returns the path written.
     """
-    from PIL import ImageDraw
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Rectangle
 
     from executive import current_environment
     from projection import _costmaps as cmod
     from projection._locations import LocationCostmaps, costmaps_of
 
+    if isinstance(scale, bool) or not isinstance(scale, int) or not 1 <= scale <= 20:
+        raise ValueError(f"scale must be an int in 1..20 (pixels per cell), got {scale!r}")
     engine = costmaps_of(current_environment().rules)
     if world is not None and (engine is None or engine.world is not world):
         engine = LocationCostmaps(world)
@@ -145,60 +252,122 @@ def costmap(
     w = engine.world
     cmap = engine.costmap(designator.first())
     spec = cmap.spec
-    values = cmap.values()
-    top = cmap.max or 1.0
     boxes = [w.link_aabb(link) for link in cmod.KITCHEN_LINKS]
     x0 = min(lo[0] for lo, _ in boxes) - 0.2
     x1 = max(hi[0] for _, hi in boxes) + 0.2
     y0 = min(lo[1] for lo, _ in boxes) - 0.2
     y1 = max(hi[1] for _, hi in boxes) + 0.2
-    c0 = max(0, int((x0 - spec.origin[0]) / spec.resolution))
-    c1 = min(spec.width, math.ceil((x1 - spec.origin[0]) / spec.resolution))
-    r0 = max(0, int((y0 - spec.origin[1]) / spec.resolution))
-    r1 = min(spec.height, math.ceil((y1 - spec.origin[1]) / spec.resolution))
-    v = values[r0:r1, c0:c1] / top
-    # heat: white -> yellow -> red where the map is positive; y up in the picture
-    rgb = np.full((*v.shape, 3), 255.0)
-    pos = v > 0
-    rgb[..., 1] = np.where(pos, 255.0 * (1.0 - 0.8 * v), 255.0)
-    rgb[..., 2] = np.where(pos, 120.0 * (1.0 - v), 255.0)
-    img = Image.fromarray(np.flipud(rgb).astype(np.uint8), "RGB")
-    img = img.resize((img.width * scale, img.height * scale), Image.Resampling.NEAREST)
-    draw = ImageDraw.Draw(img)
-    px_per_m = scale / spec.resolution
-    bx0 = spec.origin[0] + c0 * spec.resolution
-    by1 = spec.origin[1] + r1 * spec.resolution
+    dpi = 100
+    plot_w = (x1 - x0) / spec.resolution * scale / dpi  # inches
+    plot_h = (y1 - y0) / spec.resolution * scale / dpi
+    fig, ax = plt.subplots(figsize=(plot_w + 2.6, plot_h + 2.4), dpi=dpi)
+    try:
+        extent = (
+            spec.origin[0],
+            spec.origin[0] + spec.width * spec.resolution,
+            spec.origin[1],
+            spec.origin[1] + spec.height * spec.resolution,
+        )
+        title = f"costmap of {designator.short()}"
+        if cmap.empty:
+            title += f"\nempty: {cmap.empty_reason}"
+        else:
+            values = np.asarray(cmap.values(), dtype=float) / float(cmap.max)
+            image = ax.imshow(
+                np.ma.masked_less_equal(values, 0.0),
+                origin="lower",
+                extent=extent,
+                cmap="viridis",
+                vmin=0.0,
+                vmax=1.0,
+                interpolation="nearest",
+                zorder=1,
+            )
+            bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
+            bar.set_label("costmap value / max (blank = excluded)")
+        for lo, hi in boxes:
+            ax.add_patch(
+                Rectangle(
+                    (lo[0], lo[1]),
+                    hi[0] - lo[0],
+                    hi[1] - lo[1],
+                    facecolor="none",
+                    edgecolor="0.35",
+                    lw=1.0,
+                    zorder=2,
+                )
+            )
+        for name in w.objects:
+            lo, hi = w.object_aabb(name)
+            ax.add_patch(
+                Rectangle(
+                    (lo[0], lo[1]),
+                    hi[0] - lo[0],
+                    hi[1] - lo[1],
+                    facecolor="tab:blue",
+                    edgecolor="navy",
+                    zorder=3,
+                )
+            )
+            ax.annotate(
+                name,
+                ((lo[0] + hi[0]) / 2, hi[1]),
+                xytext=(0, 3),
+                textcoords="offset points",
+                ha="center",
+                fontsize=8,
+                color="navy",
+            )
 
-    def to_px(x: float, y: float) -> tuple[float, float]:
-        return (x - bx0) * px_per_m, (by1 - y) * px_per_m
+        def dots(poses: list[Any], colour: str, size: float) -> None:
+            xs = [float(p.position[0]) for p in poses]
+            ys = [float(p.position[1]) for p in poses]
+            ax.scatter(xs, ys, s=size, color=colour, edgecolor="black", lw=0.4, zorder=5)
+            for p in poses:
+                if abs(p.yaw) > 1e-9:
+                    ax.annotate(
+                        "",
+                        (
+                            p.position[0] + 0.15 * math.cos(p.yaw),
+                            p.position[1] + 0.15 * math.sin(p.yaw),
+                        ),
+                        (p.position[0], p.position[1]),
+                        arrowprops={"arrowstyle": "->", "color": colour, "lw": 1.0},
+                        zorder=5,
+                    )
 
-    for lo, hi in boxes:
-        (ax, ay), (bx, by) = to_px(lo[0], hi[1]), to_px(hi[0], lo[1])
-        draw.rectangle((ax, ay, bx, by), outline=(90, 90, 90), width=2)
-    for name in w.objects:
-        lo, hi = w.object_aabb(name)
-        (ax, ay), (bx, by) = to_px(lo[0], hi[1]), to_px(hi[0], lo[1])
-        draw.rectangle((ax, ay, bx, by), outline=(30, 60, 200), width=2)
-
-    def dot(pose: Any, colour: tuple[int, int, int]) -> None:
-        x, y = pose.position[0], pose.position[1]
-        cx, cy = to_px(x, y)
-        draw.ellipse((cx - 4, cy - 4, cx + 4, cy + 4), fill=colour)
-        yaw = pose.yaw
-        if abs(yaw) > 1e-9:
-            ex, ey = to_px(x + 0.15 * math.cos(yaw), y + 0.15 * math.sin(yaw))
-            draw.line((cx, cy, ex, ey), fill=colour, width=2)
-
-    if samples > 0 and not cmap.empty:
-        rng = np.random.default_rng(0)
-        for _ in range(samples):
-            for pose in cmap.sample(rng):
-                dot(pose, (20, 150, 40))
-    for member in designator.chain():
-        if member.effective:
-            dot(member.reference(), (0, 0, 0))
-    out = Path(path)
-    img.save(out, format="PNG")
+        legend: list[Any] = [
+            Rectangle((0, 0), 1, 1, facecolor="none", edgecolor="0.35", label="kitchen furniture"),
+            Rectangle((0, 0), 1, 1, facecolor="tab:blue", edgecolor="navy", label="objects"),
+        ]
+        if samples > 0 and not cmap.empty:
+            rng = np.random.default_rng(0)
+            fresh = [pose for _ in range(samples) for pose in cmap.sample(rng)]
+            dots(fresh, "tab:green", 18)
+            legend.append(
+                Line2D(
+                    [], [], marker="o", ls="", color="tab:green", label=f"{samples} fresh samples"
+                )
+            )
+        solved = [m.reference() for m in designator.chain() if m.effective]
+        if solved:
+            dots(solved, "black", 30)
+            legend.append(
+                Line2D([], [], marker="o", ls="", color="black", label="the chain's solutions")
+            )
+        ax.legend(handles=legend, loc="upper left", fontsize=8, framealpha=0.9)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m, map frame)")
+        ax.set_ylabel("y (m, map frame)")
+        ax.grid(True, lw=0.3, alpha=0.5)
+        ax.set_title(title, fontsize=9)
+        fig.tight_layout()
+        out = Path(path)
+        fig.savefig(out, format="png")
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -1,5 +1,6 @@
 """Testing plans: the run checker and hang guards (from :mod:`cpl.testing`), task-tree
-assertions and fake robots.
+assertions, fake robots, and a check that a picture shows something
+(:func:`assert_picture_shows_something`).
 
 The pytest fixtures built on these live in :mod:`aiocram.testing.pytest_plugin`
 (registered as a ``pytest11`` entry point). Importing this package imports ``cpl`` only;
@@ -19,6 +20,12 @@ from cpl.testing import (
     run_guarded,
 )
 
+from ._pictures import (
+    PictureStats,
+    assert_picture_shows_something,
+    picture_problems,
+    picture_stats,
+)
 from ._tree import as_tree, assert_attempts, assert_retried, find_nodes
 
 if TYPE_CHECKING:
@@ -28,12 +35,16 @@ __all__ = [
     "FakeRobot",
     "HangDetected",
     "MockClock",
+    "PictureStats",
     "TransitionChecker",
     "as_tree",
     "assert_attempts",
+    "assert_picture_shows_something",
     "assert_retried",
     "call_guarded",
     "find_nodes",
+    "picture_problems",
+    "picture_stats",
     "run_app_guarded",
     "run_guarded",
 ]

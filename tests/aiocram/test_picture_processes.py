@@ -12,7 +12,8 @@ from typing import Any
 import pytest
 
 from aiocram import _figures, demo
-from aiocram._figures import CostmapRecorder, _Use
+from aiocram._costmap_figure import _Use
+from aiocram._figures import CostmapRecorder
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
 
@@ -101,7 +102,10 @@ def test_a_failed_child_is_reported_and_the_parent_draws_its_pictures(
 ) -> None:
     from projection import render
 
-    monkeypatch.setattr(render, "scene", lambda world, path: Path(path).write_text("scene"))
+    monkeypatch.setattr(render, "camera_showing", lambda world: None)
+    monkeypatch.setattr(
+        _figures, "write_scene", lambda world, path, camera, caption: path.write_text("scene")
+    )
     demo._write_pictures(_Outputs(tmp_path), None, _Camera(), _Costmaps(), [object()])
     sys.stderr.flush()
     err = capfd.readouterr().err

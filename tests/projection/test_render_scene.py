@@ -74,3 +74,34 @@ def test_explicit_camera_and_errors(world: World, tmp_path: Path) -> None:
     world.close()
     with pytest.raises(RuntimeError, match="closed"):
         render.scene(world, tmp_path / "x.png")
+
+
+def test_camera_showing_finds_an_object_the_overview_hides(tmp_path: Path) -> None:
+    """A cup right behind the cereal box, as seen from the fixed overview camera: the
+    overview shows none of it, the chosen camera shows both, and the world is unchanged."""
+    with World(seed=0) as w:
+        w.spawn_object("breakfast-cereal-1", "breakfast-cereal", Pose((-0.8, 0.9, 0.95)))
+        w.spawn_object("cup-1", "cup", Pose((-0.74, 1.06, 0.9)))
+        names = ["breakfast-cereal-1", "cup-1"]
+        hidden = render.visible_pixels(w, None, names, width=640, height=480)
+        assert hidden["cup-1"] == 0 and hidden["breakfast-cereal-1"] > 100  # the premise
+        before = w.snapshot()
+        camera = render.camera_showing(w)
+        assert w.snapshot() == before
+        seen = render.visible_pixels(w, camera, names, width=640, height=480)
+        assert min(seen.values()) > 100, seen
+        render.scene(w, tmp_path / "both.png", camera=camera)
+        assert (tmp_path / "both.png").stat().st_size > 0
+        with pytest.raises(LookupError):
+            render.visible_pixels(w, camera, ["no-such-object"])
+
+
+def test_camera_showing_without_objects_is_the_overview(world: World) -> None:
+    assert render.camera_showing(world, []) == render.OVERVIEW_CAMERA
+
+
+def test_visible_pixels_rejects_bad_sizes(world: World) -> None:
+    with pytest.raises(ValueError, match="width must be in 1..4096"):
+        render.visible_pixels(world, None, ["cup-1"], width=0)
+    with pytest.raises(TypeError, match="height must be an int"):
+        render.camera_showing(world, height=2.5)  # type: ignore[arg-type]
