@@ -1065,7 +1065,32 @@ async def run_joined(child: Task) -> Any:
         child._close_aw()
         child._finish(_EVAPORATED)
         return None
+    if _inline_chain_is_long(CURRENT_TASK.get()):
+        # Every MAX_INLINE_DEPTH levels the chain goes on in a fresh asyncio task: its
+        # stack starts empty, so a chain of any depth stays below the recursion limit,
+        # and evaporating it unwinds one bounded stretch at a time (each join_owned
+        # evaporates the next stretch and waits), not in one recursion down the chain.
+        child.start()
+        return await join_owned(child)
     return await child._run_inline()
+
+
+#: How many tasks may run inline in one asyncio task (a chain of joined plan calls): each
+#: level costs a handful of Python frames, on the way down and again when a cancellation
+#: unwinds it, and the interpreter's recursion limit (1000 frames) is shared by the chain.
+MAX_INLINE_DEPTH = 32
+
+
+def _inline_chain_is_long(task: Task | None) -> bool:
+    """Whether ``task`` is the MAX_INLINE_DEPTH-th (or deeper) of a chain of inline tasks
+    sharing one asyncio task (a walk of at most MAX_INLINE_DEPTH steps)."""
+    depth = 0
+    while task is not None:
+        task = task._inline_parent
+        depth += 1
+        if depth >= MAX_INLINE_DEPTH:
+            return True
+    return False
 
 
 async def join_owned(child: Task) -> Any:

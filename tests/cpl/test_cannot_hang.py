@@ -22,7 +22,7 @@ import anyio
 import pytest
 
 import cpl
-from cpl.testing import MockClock, call_guarded, run_app_guarded
+from cpl.testing import MockClock, TransitionChecker, call_guarded, run_app_guarded
 
 STUCK = 1000.0  # seconds of loop time a stuck cleanup would take
 
@@ -128,3 +128,40 @@ def test_asyncio_task_left_running_does_not_hold_run() -> None:
 
     assert call_guarded(lambda: cpl.run(plan, cleanup_timeout=0.2), wall_timeout=20) == "done"
     assert cancels[0] == 1
+
+
+@cpl.plan
+async def _chain(n: int, cleanups: list[int]) -> None:
+    try:
+        if n == 0:
+            await cpl.sleep(1000)
+        else:
+            await _chain(n - 1, cleanups)
+    finally:
+        cleanups.append(n)
+
+
+@pytest.mark.parametrize("instrumented", [False, True], ids=["bare", "checker"])
+@pytest.mark.parametrize("depth", [260, 1000])
+def test_evaporating_a_deep_chain_of_plan_calls(depth: int, instrumented: bool) -> None:
+    """Before: a chain of ~250 nested plan calls overflowed the stack (RecursionError),
+    and with a TransitionChecker attached the run hung."""
+    cleanups: list[int] = []
+    checker = TransitionChecker()
+
+    async def main() -> Any:
+        chain = cpl.spawn(_chain(depth, cleanups), name="chain")
+        await cpl.sleep(1)
+        chain.evaporate("enough")
+        return await chain.join()
+
+    instruments = [checker] if instrumented else []
+    result = call_guarded(
+        lambda: cpl.run(main, clock=MockClock(), instruments=instruments), wall_timeout=60
+    )
+    assert result is None
+    assert cleanups == list(range(depth + 1))  # innermost first, each once
+    if instrumented:
+        checker.assert_clean()
+        evaporated = [t for t in checker.tasks if t.state is cpl.Status.EVAPORATED]
+        assert len(evaporated) == depth + 2  # the spawned task and every plan call
