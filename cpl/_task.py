@@ -502,10 +502,19 @@ class Task:
             self._close_aw()
         if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
             host.uncancel()  # the body swallowed its evaporation: take back our request
-        elif outcome is _FAILED and self.evaporation is None and host.cancelling():
+        elif (
+            outcome is _FAILED
+            and self.evaporation is None
+            and host.cancelling()
+            and _evaporating(parent)
+        ):
             # An ancestor's evaporation unwound this task and its cleanup raised: the task
             # failed in its cleanup (recorded, and logged at the run's end, as for a task of
             # its own), and the ancestor's evaporation goes on instead of that failure.
+            # (A cancellation from outside cpl, an anyio scope or asyncio.timeout, is not
+            # an evaporation: there the cleanup's failure propagates, as it would from any
+            # Python code, and the scope that cancelled sees it instead of a cancellation
+            # it never asked for.)
             self.evaporation = Evaporated("its parent was evaporated", parent.path)
             reraise = asyncio.CancelledError()
         reraise = await self._end_body(outcome, reraise)
@@ -1073,6 +1082,16 @@ async def run_joined(child: Task) -> Any:
         child.start()
         return await join_owned(child)
     return await child._run_inline()
+
+
+def _evaporating(task: Task | None) -> bool:
+    """Whether ``task`` or one of the inline tasks it runs in (the chain sharing its
+    asyncio task) was asked to evaporate."""
+    while task is not None:
+        if task.evaporation is not None:
+            return True
+        task = task._inline_parent
+    return False
 
 
 #: How many tasks may run inline in one asyncio task (a chain of joined plan calls): each
