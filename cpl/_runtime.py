@@ -31,18 +31,47 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("cpl")
 
-__all__ = ["Run", "RunHistory", "RunTimeout", "current_roots", "run", "task_tree", "top_level"]
+__all__ = [
+    "Run",
+    "RunHistory",
+    "RunTimeout",
+    "current_roots",
+    "run",
+    "stray_asyncio_tasks",
+    "task_tree",
+    "top_level",
+]
 
 
 class Run:
     """One top-level run: its root task and its instruments."""
 
-    __slots__ = ("__weakref__", "instruments", "name", "root")
+    __slots__ = ("__weakref__", "before", "instruments", "name", "root")
 
     def __init__(self, name: str, instruments: Iterable[Instrument]) -> None:
         self.name = name
         self.instruments = InstrumentSet(instruments)
         self.root: Task | None = None
+        # Invariant: the asyncio tasks of the loop that existed when the run started
+        # (weakly held); every other asyncio task was created during the run.
+        self.before: weakref.WeakSet[asyncio.Task[Any]] = weakref.WeakSet()
+
+
+def stray_asyncio_tasks(root: Task) -> list[asyncio.Task[Any]]:
+    """The plain asyncio tasks created during ``root``'s run that are still pending: not
+    the asyncio task of any cpl task of the run, not the calling one, not one that existed
+    before the run began. A plan that leaves such a task behind leaks it (cpl evaporates
+    only cpl tasks). Call it on the run's loop."""
+    run_ = root._run
+    if run_ is None:
+        raise ValueError(f"{root!r} is not the root of a run (start it with cpl.run / top_level)")
+    ours = {t._atask for t in root._subtree() if t._atask is not None}
+    me = asyncio.current_task()
+    return [
+        t
+        for t in asyncio.all_tasks()
+        if not t.done() and t is not me and t not in ours and t not in run_.before
+    ]
 
 
 class RunHistory:
@@ -139,6 +168,7 @@ async def top_level(
     coro = as_coroutine(aw)
     label = name or getattr(coro, "__name__", None) or "top-level"
     run_ = Run(label, instruments)
+    run_.before.update(asyncio.all_tasks())
     root = Task(coro, label, kind="top-level", _register=False)
     root._run = run_
     run_.root = root
