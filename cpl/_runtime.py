@@ -331,22 +331,48 @@ def _abandon(loop: asyncio.AbstractEventLoop, tasks: list[asyncio.Task[Any]]) ->
             coro = atask.get_coro()
             if coro is None or not hasattr(coro, "close"):
                 continue
+            chain = _await_chain(coro)
             try:
                 coro.close()
             except RuntimeError as exc:  # it awaited in its cleanup, or ignored the close
                 log.warning("abandoned task %r did not close cleanly: %s", atask.get_name(), exc)
             except BaseException as exc:  # its cleanup raised: the run is over, report it
                 log.warning("abandoned task %r raised while closing: %r", atask.get_name(), exc)
-            if getattr(coro, "cr_frame", None) is not None:  # still suspended
+            # Closing an outer coroutine whose inner one refused detaches the inner one,
+            # still suspended: every suspended coroutine of the chain is kept.
+            refused = [c for c in chain if _suspended(c)]
+            if refused:
                 log.error(
-                    "abandoned task %r refused to close (it catches BaseException around "
+                    "abandoned task %r refused to close (%s catches BaseException around "
                     "its waits); it is made immortal, never run again",
                     atask.get_name(),
+                    getattr(refused[-1], "__qualname__", refused[-1]),
                 )
-                ctypes.pythonapi.Py_IncRef(ctypes.py_object(coro))
+                for c in refused:
+                    ctypes.pythonapi.Py_IncRef(ctypes.py_object(c))
     finally:
         events._set_running_loop(None)
     loop.close()
+
+
+def _await_chain(coro: Any) -> list[Any]:
+    """The coroutines and generators ``coro`` is suspended in, outermost first."""
+    chain: list[Any] = []
+    obj = coro
+    while obj is not None:
+        if isinstance(obj, _Driver):  # a cpl task's driver: its body is what runs
+            obj = obj._coro
+            continue
+        if inspect.iscoroutine(obj) or inspect.isgenerator(obj):
+            chain.append(obj)
+        inner = getattr(obj, "cr_await", None)
+        obj = inner if inner is not None else getattr(obj, "gi_yieldfrom", None)
+    return chain
+
+
+def _suspended(obj: Any) -> bool:
+    frame = obj.cr_frame if inspect.iscoroutine(obj) else obj.gi_frame
+    return frame is not None
 
 
 class RunTimeout(TimeoutError):

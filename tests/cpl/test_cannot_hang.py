@@ -15,6 +15,7 @@ are about loop time (virtual under ``MockClock``) or counts, never wall-clock ti
 from __future__ import annotations
 
 import asyncio
+import gc
 import logging
 from typing import Any
 
@@ -107,6 +108,34 @@ def test_plan_swallowing_base_exception_is_abandoned_not_spun(
     # evaporation (1), a wait for the cleanup, the close (1 more): never re-driven
     assert rounds[0] <= 5
     assert any("refused to close" in r.message for r in caplog.records)
+
+
+def test_swallowing_branches_are_kept_not_left_to_the_collector() -> None:
+    """Closing a task whose body awaits a coroutine that refuses to close detaches that
+    coroutine, still suspended; left to the garbage collector, it would be closed again
+    with no loop, and spin."""
+    LIMIT = 100_000
+    rounds: dict[int, int] = {0: 0, 1: 0, 2: 0}
+
+    async def swallow(k: int) -> None:
+        while rounds[k] < LIMIT:
+            rounds[k] += 1
+            try:
+                await cpl.sleep(10)
+            except BaseException:  # the misbehaviour under test
+                pass
+
+    async def wrapper() -> None:
+        await swallow(0)  # the task's body is wrapper; swallow is awaited inside it
+
+    async def plan() -> None:
+        cpl.spawn(cpl.par(swallow(1), swallow(2)), name="branches")
+        await wrapper()
+
+    with pytest.raises(cpl.RunTimeout):
+        call_guarded(lambda: cpl.run(plan, timeout=0.1, cleanup_timeout=0.1), wall_timeout=20)
+    gc.collect()
+    assert max(rounds.values()) <= 5, rounds
 
 
 def test_asyncio_task_left_running_does_not_hold_run() -> None:
