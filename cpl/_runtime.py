@@ -133,6 +133,7 @@ async def top_level(
     history: RunHistory | None = None,
     timeout: float | None = None,
     cleanup_timeout: float = 30.0,
+    _own_loop: bool = False,
 ) -> Any:
     """Run a plan as a top-level task inside a running event loop.
 
@@ -168,7 +169,12 @@ async def top_level(
     coro = as_coroutine(aw)
     label = name or getattr(coro, "__name__", None) or "top-level"
     run_ = Run(label, instruments)
-    run_.before.update(asyncio.all_tasks())
+    if _own_loop:  # cpl.run's fresh loop: only this task was there before the run
+        me = asyncio.current_task()
+        assert me is not None
+        run_.before.add(me)
+    else:
+        run_.before.update(asyncio.all_tasks())
     root = Task(coro, label, kind="top-level", _register=False)
     root._run = run_
     run_.root = root
@@ -277,6 +283,7 @@ def run(
                 history=history,
                 timeout=timeout,
                 cleanup_timeout=cleanup_timeout,
+                _own_loop=True,
             )
         )
     finally:
