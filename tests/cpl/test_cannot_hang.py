@@ -85,6 +85,47 @@ def test_cancelled_main_task_of_run_with_stuck_cleanup_returns() -> None:
         call_guarded(lambda: cpl.run(plan, cleanup_timeout=0.2), wall_timeout=20)
 
 
+_CTRL_C = """
+import asyncio, os, signal, sys
+import cpl
+
+async def plan():
+    asyncio.get_running_loop().call_later(0.2, os.kill, os.getpid(), signal.SIGINT)
+    try:
+        await cpl.sleep(100)
+    finally:
+        await cpl.shielded(asyncio.sleep(1000))  # stuck cleanup
+
+try:
+    cpl.run(plan, timeout=30, cleanup_timeout=0.5)
+except KeyboardInterrupt:
+    print("interrupted")
+    sys.exit(0)
+"""
+
+
+def test_one_ctrl_c_with_a_stuck_cleanup_ends_the_process() -> None:
+    """A real SIGINT (asyncio.Runner cancels the main task). Before: the process hung in
+    top_level waiting for the cleanup."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(cpl.__file__).resolve().parent.parent
+    proc = subprocess.run(
+        [sys.executable, "-c", _CTRL_C],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "interrupted"
+    assert "did not end within cleanup_timeout=0.5" in proc.stderr
+
+
 def test_plan_swallowing_base_exception_is_abandoned_not_spun(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
