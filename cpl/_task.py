@@ -516,7 +516,10 @@ class Task:
             # Python code, and the scope that cancelled sees it instead of a cancellation
             # it never asked for.)
             self.evaporation = Evaporated("its parent was evaporated", parent.path)
-            reraise = asyncio.CancelledError()
+            # The cancellation the cleanup interrupted goes on, the same object: whoever
+            # else cancelled the asyncio task too (an anyio scope tells its own by the
+            # message) still recognises it.
+            reraise = _interrupted_cancellation(self.failure) or asyncio.CancelledError()
         reraise = await self._end_body(outcome, reraise)
         CURRENT_TASK.reset(token)
         self._inline_parent = None
@@ -1082,6 +1085,18 @@ async def run_joined(child: Task) -> Any:
         child.start()
         return await join_owned(child)
     return await child._run_inline()
+
+
+def _interrupted_cancellation(exc: BaseException | None) -> asyncio.CancelledError | None:
+    """The CancelledError that ``exc`` (raised by cleanup code) interrupted, if any: the
+    nearest one in its ``__context__`` chain."""
+    seen = 0
+    while exc is not None and seen < 100:  # bounded: a chain may be long, or a cycle
+        exc = exc.__context__
+        if isinstance(exc, asyncio.CancelledError):
+            return exc
+        seen += 1
+    return None
 
 
 def _evaporating(task: Task | None) -> bool:

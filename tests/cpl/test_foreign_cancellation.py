@@ -123,3 +123,32 @@ def test_evaporation_of_an_ancestor_goes_on_past_a_failing_cleanup(
     broke = [t for t in checker.tasks if isinstance(t.failure, CleanupBroke)]
     assert broke and all(t.evaporation is not None for t in broke)
     assert any("CleanupBroke" in r.getMessage() for r in caplog.records)
+
+
+def test_evaporation_and_an_anyio_scope_at_once_past_a_failing_cleanup(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The tag is evaporated in the same instant as the anyio scope around it fires, and
+    the plan call inside it has a cleanup that raises (a shape the random evaporations
+    found). Before: the cleanup's failure was replaced by a fresh CancelledError that the
+    scope did not recognise, and it escaped as a bare CancelledError."""
+    checker = TransitionChecker()
+
+    async def branch() -> str:
+        with anyio.move_on_after(2) as scope:
+            await cpl.tag("t", _plan_call(True))
+        return f"scope caught: {scope.cancelled_caught}"
+
+    async def main() -> Any:
+        task = cpl.spawn(branch(), name="branch")
+        await cpl.sleep(2)
+        tag = next(t for t in checker.tasks if t.name == "t")
+        tag.evaporate("at the same time")
+        return await task.join()
+
+    with caplog.at_level(logging.ERROR, logger="cpl.cleanup"):
+        assert _run(main, checker) == "scope caught: True"
+    states = {t.name: t.state for t in checker.tasks}
+    assert states["t"] is cpl.Status.EVAPORATED
+    assert states["_plan_call"] is cpl.Status.FAILED
+    assert any("CleanupBroke" in r.getMessage() for r in caplog.records)

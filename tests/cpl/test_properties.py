@@ -307,6 +307,60 @@ def test_cleanups_that_raise_under_anyio_cancellation(shape, nesting, delay, mov
     assert [t for t in rec.tasks if t.alive] == []
 
 
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    shape=st.sampled_from(sorted(INLINE_SHAPES)),
+    nesting=st.integers(1, 3),
+    delay=st.integers(0, 3).map(lambda n: 2 * n + 1),
+    move_on_after=st.integers(0, 4).map(lambda n: 2 * n),
+    raises=st.booleans(),
+    kill_at=st.integers(0, 4).map(lambda n: 2 * n),  # may be the scope's very instant
+    victim=st.integers(0, 10),
+)
+def test_evaporations_meeting_anyio_cancellation_and_failing_cleanups(
+    shape, nesting, delay, move_on_after, raises, kill_at, victim
+):
+    """As above, and a cpl evaporation of a random task of the nest at a random time,
+    possibly in the same instant as the scope fires: every outcome is a value, the
+    scope's cancellation, the cleanup's failure or the evaporation; never a bare
+    CancelledError, never a task left alive."""
+    import anyio
+
+    rec = Recorder()
+
+    async def nest(level: int):
+        if level == 0:
+            return await INLINE_SHAPES[shape](delay, raises)
+        return await cpl.with_task(nest(level - 1), name=f"level{level}")
+
+    async def branch():
+        with anyio.move_on_after(move_on_after) as scope:
+            return ("value", await nest(nesting - 1))
+        return ("cancelled", scope.cancelled_caught)
+
+    async def main():
+        task = cpl.spawn(branch(), name="branch")
+        await cpl.sleep(kill_at)
+        alive = [t for t in task._subtree() if t.alive]
+        if alive:
+            alive[victim % len(alive)].evaporate("random evaporation")
+        return await task.join()
+
+    try:
+        outcome = run_guarded(main, clock=MockClock(), instruments=[rec], wall_timeout=20.0)
+    except _CleanupBroke:
+        outcome = ("cleanup failed", None)
+    assert outcome in (
+        ("value", "done"),
+        ("value", None),  # the inline child was evaporated: its join gives None
+        ("cancelled", True),
+        ("cleanup failed", None),
+        None,  # the branch itself was evaporated
+    ), outcome
+    assert rec.illegal == []
+    assert [t for t in rec.tasks if t.alive] == []
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     alternatives=st.lists(st.booleans(), min_size=1, max_size=4),
