@@ -152,6 +152,9 @@ async def top_level(
     Runs on asyncio only: under anyio use the asyncio backend (``anyio.run(main,
     backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
     ``docs/async_interop.md``).
+
+    (``_own_loop`` is for :func:`run`: the loop is fresh, so the asyncio tasks there
+    before the run need not be listed for :func:`stray_asyncio_tasks`.)
     """
     _require_asyncio("cpl.top_level", fn)
     _check_timeouts(timeout, cleanup_timeout)
@@ -366,7 +369,7 @@ def _await_chain(coro: Any) -> list[Any]:
     """The coroutines and generators ``coro`` is suspended in, outermost first."""
     chain: list[Any] = []
     obj = coro
-    while obj is not None:
+    while obj is not None and len(chain) < 100_000:  # bounded, whatever the objects claim
         if isinstance(obj, _Driver):  # a cpl task's driver: its body is what runs
             obj = obj._coro
             continue
