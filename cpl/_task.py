@@ -1069,7 +1069,8 @@ async def with_task(
 async def run_joined(child: Task) -> Any:
     """Start a fresh CREATED ``child`` and join it, running it inline in the caller's
     asyncio task when it can (see :meth:`Task._run_inline`), on its own asyncio task
-    otherwise (a child with ordering constraints)."""
+    otherwise (a child with ordering constraints, or one MAX_INLINE_DEPTH levels down a chain
+    of inline tasks)."""
     if child._constraints or child._atask is not None or child._state is not _CREATED:
         child.start()
         return await join_owned(child)
