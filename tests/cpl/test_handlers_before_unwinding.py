@@ -157,3 +157,21 @@ def test_parallel_forms_do_not_show_handled_branch_failures(
     body: Callable[[], Awaitable[Any]],
 ) -> None:
     assert _outer(body) == ("clear", [])
+
+
+def test_inner_before_unwinding_retry_wins_over_the_outer_handler() -> None:
+    attempts = [0]
+
+    async def body() -> str:
+        attempts[0] += 1
+        if attempts[0] < 3:
+            cpl.fail(f"attempt {attempts[0]}")
+        return f"inner after {attempts[0]}"
+
+    def again(_failure: cpl.PlanFailure) -> None:
+        cpl.retry()
+
+    result, seen = _outer(
+        lambda: cpl.with_failure_handling(body, {cpl.PlanFailure: again}, before_unwinding=True)
+    )
+    assert (result, seen) == ("inner after 3", [])
