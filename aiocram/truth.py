@@ -17,7 +17,8 @@ lets the true world settle and measures:
 
   - ``no_task_leaked``: no task is alive when the demo plan's body returns, except the
     body's own task and its ancestors (anything else would only be evaporated by the top
-    level);
+    level), and no plain asyncio task created during the run is still pending (cpl
+    would not even evaporate it);
   - ``nothing_attached_before_cleanup`` / ``arms_at_rest_before_cleanup``: at the end of
     the plan, *before* the demo's final cleanup parks the arms, nothing is held in the
     true world and both arms are at a rest configuration (``carry`` or ``park``); a
@@ -37,12 +38,14 @@ The observer never changes the physics during the run: it only reads the true wo
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import cpl
+from cpl.lowlevel import stray_asyncio_tasks
 from executive import kitchen
 
 __all__ = [
@@ -212,6 +215,12 @@ def _holding_arm(link: str) -> str | None:
     return None
 
 
+def _describe(atask: asyncio.Task[Any]) -> str:
+    coro = atask.get_coro()
+    what = getattr(coro, "__qualname__", type(coro).__name__)
+    return f"asyncio task {atask.get_name()!r} ({what})"
+
+
 def _arm_error(world: Any, configuration: str) -> dict[str, float]:
     from executive.knowledge import arm_configuration
 
@@ -274,9 +283,17 @@ class TruthObserver:
         return unsubscribe
 
     def body_returned(self) -> None:
-        """The demo plan's body has returned: record the tasks it leaked."""
-        leaked = leaked_tasks(self._tasks(), cpl.current_task())
-        self._leaked = ["/".join(t.path) for t in leaked]
+        """The demo plan's body has returned: record the tasks it leaked, cpl tasks and
+        plain asyncio tasks created during the run and still pending (call it from inside
+        the run)."""
+        current = cpl.current_task()
+        leaked = ["/".join(t.path) for t in leaked_tasks(self._tasks(), current)]
+        root = current
+        while root is not None and root.parent is not None:
+            root = root.parent
+        if root is not None:
+            leaked += [_describe(t) for t in stray_asyncio_tasks(root)]
+        self._leaked = leaked
 
     def before_cleanup(self) -> None:
         """The plan is over, the final cleanup has not run: record what is held and where

@@ -30,6 +30,18 @@ When handlers run: two modes.
   branch's designator) before cleanup changes it. As in CRAM, handlers of a parent task
   never run in a child task: a child's failure reaches them at the join.
 
+Inner handling comes first, as with CRAM's nested ``handler-bind``: a form inside the body
+that handles a failure itself is innermost, so an outer before-unwinding handler does not
+see it. ``try_in_order`` / ``try_each_in_order`` moving on to the next alternative, and an
+inner ``with_failure_handling`` (either mode) whose clauses match, get the failure first;
+the outer handler sees only what they give up on: ``try_in_order``'s
+:class:`~cpl.CompositeFailure` once every alternative failed (once), or a failure the inner
+form declined. Parallel forms (``try_all``, ``pursue``) run branches in tasks of their own,
+whose failures never reach the parent's handlers until the form itself fails. Deliberate
+difference from CRAM: an inner form whose handlers run *after* unwinding decides only
+then; if it declines, the outer before-unwinding handler gets the failure at the next
+signal point or after unwinding, not at the original signal point.
+
 Exception types in clauses:
 
 - A clause naming ``Exception`` also catches :class:`~cpl.PlanFailure` (a ``PlanFailure`` is
@@ -50,7 +62,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Iterable, Mapping
-from contextvars import ContextVar
+from contextvars import ContextVar, Token
 from typing import Any, NoReturn, TypeAlias
 
 from ._failures import PlanFailure
@@ -118,9 +130,45 @@ class _Scope:
         self.attempt = 0
 
 
-#: The before-unwinding forms around the running code (innermost last). A context
-#: variable: each asyncio task sees its own stack, and every scope names its owner task.
-_EARLY: ContextVar[tuple[_Scope, ...]] = ContextVar("cpl_early_handlers", default=())
+class _Handled:
+    """A form that handles failures of ``types`` itself (``try_in_order`` moving on to the
+    next alternative, a ``with_failure_handling`` whose handlers run after unwinding),
+    pushed only while before-unwinding forms are around it. Signalled failures of those
+    types stop here: the outer before-unwinding handlers do not see them, because the
+    inner form handles them first (CRAM's inner ``handler-bind`` wins). If the inner form
+    declines after all, the failure unwinds out of it and is dispatched again at the next
+    signal point or by the outer form after unwinding."""
+
+    __slots__ = ("owner", "types")
+
+    def __init__(self, types: tuple[type[BaseException], ...]) -> None:
+        self.types = types
+        # Invariant: the cpl task running the form (it handles only that task's failures).
+        self.owner = CURRENT_TASK.get()
+
+
+#: The before-unwinding forms around the running code, and the inner forms that handle
+#: failures themselves (innermost last). A context variable: each asyncio task sees its
+#: own stack, and every scope names its owner task.
+_EARLY: ContextVar[tuple[_Scope | _Handled, ...]] = ContextVar("cpl_early_handlers", default=())
+
+
+def handling(types: tuple[type[BaseException], ...]) -> Token[tuple[_Scope | _Handled, ...]] | None:
+    """Mark the code that runs until :func:`handled` as handled by the calling form for
+    failures of ``types`` (see :class:`_Handled`). ``None`` (and no cost) when no
+    before-unwinding form is around: there is nothing to hold back."""
+    scopes = _EARLY.get()
+    if not scopes:
+        return None
+    return _EARLY.set((*scopes, _Handled(types)))
+
+
+def handled(token: Token[tuple[_Scope | _Handled, ...]] | None) -> None:
+    """End what :func:`handling` began (in the same task)."""
+    if token is not None:
+        _EARLY.reset(token)
+
+
 _TRIED = "_cpl_early_handled"
 
 
@@ -147,7 +195,13 @@ def signal_failure(failure: BaseException) -> None:
         return
     me = CURRENT_TASK.get()
     for scope in reversed(scopes):
-        if scope.owner is not me or _was_tried(failure, scope):
+        if scope.owner is not me:
+            continue
+        if isinstance(scope, _Handled):
+            if isinstance(failure, scope.types):
+                return  # an inner form handles it first
+            continue
+        if _was_tried(failure, scope):
             continue
         _mark(failure, scope)
         for types, handler in scope.clauses:
@@ -256,8 +310,12 @@ async def with_failure_handling(
         )
     clauses = _clauses(handlers)
     scope: _Scope | None = None
-    token = None
-    if before_unwinding:
+    token: Token[tuple[_Scope | _Handled, ...]] | None = None
+    if not before_unwinding:
+        # Its handlers get the body's failures first (after unwinding): outer
+        # before-unwinding handlers wait until these decline.
+        token = handling(tuple(t for types, _handler in clauses for t in types))
+    else:
         for _types, handler in clauses:
             if inspect.iscoroutinefunction(handler):
                 raise TypeError(

@@ -35,7 +35,7 @@ from collections.abc import Awaitable, Callable, Generator, Iterable, Sequence
 from types import CoroutineType
 from typing import Any
 
-from ._failure_handling import signal_failure
+from ._failure_handling import handled, handling, signal_failure
 from ._failures import CompositeFailure, PlanFailure
 from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
@@ -60,6 +60,8 @@ __all__ = [
 _DEAD = frozenset({Status.SUCCEEDED, Status.FAILED, Status.EVAPORATED})
 
 Branch = Awaitable[Any] | Callable[[], Awaitable[Any]] | Task
+#: The failures on which try_in_order / try_each_in_order move on to the next alternative.
+_MOVES_ON = (PlanFailure,)
 
 
 class Tagged:
@@ -158,6 +160,7 @@ async def try_in_order(*aws: Branch) -> Any:
     propagate). All failed: :class:`~cpl.CompositeFailure` with the failures in order."""
     failures: list[BaseException] = []
     items = list(aws)
+    token = handling(_MOVES_ON)  # its own handling is innermost
     try:
         while items:
             step = items.pop(0)
@@ -171,6 +174,7 @@ async def try_in_order(*aws: Branch) -> Any:
             except PlanFailure as failure:
                 failures.append(failure)
     finally:
+        handled(token)
         for rest in items:
             _close(rest)
     if not failures:
@@ -188,11 +192,15 @@ async def try_each_in_order(values: Iterable[Any], fn: Callable[[Any], Awaitable
     it is consumed only as far as needed.
     """
     failures: list[BaseException] = []
-    for value in values:
-        try:
-            return await fn(value)
-        except PlanFailure as failure:
-            failures.append(failure)
+    token = handling(_MOVES_ON)  # its own handling is innermost
+    try:
+        for value in values:
+            try:
+                return await fn(value)
+            except PlanFailure as failure:
+                failures.append(failure)
+    finally:
+        handled(token)
     if not failures:
         return None
     composite = CompositeFailure(failures)

@@ -9,10 +9,12 @@ keeps the last run of each *named* top level (CRAM's ``*top-level-task-trees*``)
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import importlib
 import inspect
 import logging
 import weakref
+from asyncio import events
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Iterable
 from typing import TYPE_CHECKING, Any
@@ -21,26 +23,55 @@ from ._cleanup import log_cleanup_failures
 from ._clock import Clock
 from ._failure_handling import _Retry, _Return
 from ._instruments import Instrument, InstrumentSet
-from ._scheduling import CURRENT_TASK
-from ._task import Task, as_coroutine, wait_dead
+from ._scheduling import CURRENT_TASK, DeferredCancellation
+from ._task import Task, _Driver, as_coroutine
 
 if TYPE_CHECKING:
     from ._tree import TaskNode
 
 log = logging.getLogger("cpl")
 
-__all__ = ["Run", "RunHistory", "RunTimeout", "current_roots", "run", "task_tree", "top_level"]
+__all__ = [
+    "Run",
+    "RunHistory",
+    "RunTimeout",
+    "current_roots",
+    "run",
+    "stray_asyncio_tasks",
+    "task_tree",
+    "top_level",
+]
 
 
 class Run:
     """One top-level run: its root task and its instruments."""
 
-    __slots__ = ("__weakref__", "instruments", "name", "root")
+    __slots__ = ("__weakref__", "before", "instruments", "name", "root")
 
     def __init__(self, name: str, instruments: Iterable[Instrument]) -> None:
         self.name = name
         self.instruments = InstrumentSet(instruments)
         self.root: Task | None = None
+        # Invariant: the asyncio tasks of the loop that existed when the run started
+        # (weakly held); every other asyncio task was created during the run.
+        self.before: weakref.WeakSet[asyncio.Task[Any]] = weakref.WeakSet()
+
+
+def stray_asyncio_tasks(root: Task) -> list[asyncio.Task[Any]]:
+    """The plain asyncio tasks created during ``root``'s run that are still pending: not
+    the asyncio task of any cpl task of the run, not the calling one, not one that existed
+    before the run began. A plan that leaves such a task behind leaks it (cpl evaporates
+    only cpl tasks). Call it on the run's loop."""
+    run_ = root._run
+    if run_ is None:
+        raise ValueError(f"{root!r} is not the root of a run (start it with cpl.run / top_level)")
+    ours = {t._atask for t in root._subtree() if t._atask is not None}
+    me = asyncio.current_task()
+    return [
+        t
+        for t in asyncio.all_tasks()
+        if not t.done() and t is not me and t not in ours and t not in run_.before
+    ]
 
 
 class RunHistory:
@@ -102,12 +133,15 @@ async def top_level(
     history: RunHistory | None = None,
     timeout: float | None = None,
     cleanup_timeout: float = 30.0,
+    _own_loop: bool = False,
 ) -> Any:
     """Run a plan as a top-level task inside a running event loop.
 
     Returns the plan's value or raises its failure (the same object), and returns only when
     every task it started is dead. Top levels do not nest (``RuntimeError``). If the caller
-    is cancelled, the plan is evaporated and waited for, then the cancellation propagates.
+    is cancelled, the plan is evaporated and waited for, at most ``cleanup_timeout``
+    seconds (tasks still alive then are logged and abandoned), then the cancellation
+    propagates.
 
     ``timeout`` (seconds of the loop clock) bounds the run: when it passes, the plan is
     evaporated, its cleanup gets ``cleanup_timeout`` more seconds, and :class:`RunTimeout`
@@ -118,6 +152,9 @@ async def top_level(
     Runs on asyncio only: under anyio use the asyncio backend (``anyio.run(main,
     backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
     ``docs/async_interop.md``).
+
+    (``_own_loop`` is for :func:`run`: the loop is fresh, so the asyncio tasks there
+    before the run need not be listed for :func:`stray_asyncio_tasks`.)
     """
     _require_asyncio("cpl.top_level", fn)
     _check_timeouts(timeout, cleanup_timeout)
@@ -135,6 +172,12 @@ async def top_level(
     coro = as_coroutine(aw)
     label = name or getattr(coro, "__name__", None) or "top-level"
     run_ = Run(label, instruments)
+    if _own_loop:  # cpl.run's fresh loop: only this task was there before the run
+        me = asyncio.current_task()
+        assert me is not None
+        run_.before.add(me)
+    else:
+        run_.before.update(asyncio.all_tasks())
     root = Task(coro, label, kind="top-level", _register=False)
     root._run = run_
     run_.root = root
@@ -142,6 +185,10 @@ async def top_level(
         hook(root)
     _ACTIVE.add(root)
     loop = asyncio.get_running_loop()
+    # Invariant: None until the root is evaporated (timeout or a cancelled caller); then
+    # the loop time by which its cleanup must have ended. Set once: a second reason to
+    # stop (the caller cancelled during the timeout's cleanup) does not extend it.
+    cleanup_deadline: float | None = None
     try:
         root.start()
         try:
@@ -154,12 +201,25 @@ async def top_level(
                         root._drop_waiter(fut)
             elif not await _wait_dead_until(root, loop.time() + timeout):
                 root.evaporate(f"the run exceeded its timeout of {timeout:g} s", by=("timeout",))
-                if not await _wait_dead_until(root, loop.time() + cleanup_timeout):
+                cleanup_deadline = loop.time() + cleanup_timeout
+                if not await _wait_dead_until(root, cleanup_deadline):
                     raise RunTimeout(timeout, cleanup_timeout, root)
                 raise RunTimeout(timeout, None, root)
         except asyncio.CancelledError:
             root.evaporate("the caller of top_level was cancelled")
-            await wait_dead([root])
+            if cleanup_deadline is None:
+                cleanup_deadline = loop.time() + cleanup_timeout
+            if not await _wait_dead_shielded(root, cleanup_deadline):
+                # The caller's cancellation goes on (it is theirs, not ours to turn into
+                # a RunTimeout); the tasks that did not end are reported and abandoned.
+                stuck = [t for t in root._subtree() if t.alive]
+                log.error(
+                    "top level %r: the caller was cancelled and the cleanup did not end "
+                    "within cleanup_timeout=%g s; abandoned, still alive: %s",
+                    label,
+                    cleanup_timeout,
+                    ", ".join("/".join(t.path) for t in stuck[:10]),
+                )
             raise
     finally:
         _ACTIVE.discard(root)
@@ -216,7 +276,6 @@ def run(
         return loop
 
     runner = asyncio.Runner(debug=debug, loop_factory=factory)
-    abandon = False
     try:
         return runner.run(
             top_level(
@@ -227,30 +286,103 @@ def run(
                 history=history,
                 timeout=timeout,
                 cleanup_timeout=cleanup_timeout,
+                _own_loop=True,
             )
         )
-    except RunTimeout as exc:
-        abandon = bool(exc.stuck)
-        raise
     finally:
-        if abandon:
-            # The stuck tasks would make Runner.close() wait for them forever: close their
-            # coroutines (their finally blocks run, but cannot await) and the loop.
-            _abandon(runner.get_loop())
-        else:
-            runner.close()
+        _shut_down(runner, cleanup_timeout)
 
 
-def _abandon(loop: asyncio.AbstractEventLoop) -> None:
-    for atask in asyncio.all_tasks(loop):
-        coro = atask.get_coro()
+def _shut_down(runner: asyncio.Runner, cleanup_timeout: float) -> None:
+    """Close ``runner`` without waiting unboundedly (``Runner.close`` cancels every task
+    left and waits for all of them: one stuck cleanup would hang it).
+
+    - cpl tasks still alive were already given their cleanup time by ``top_level``
+      (``RunTimeout`` with ``stuck``, or a cancelled caller): they are abandoned at once;
+    - plain asyncio tasks the plan left running are cancelled and get ``cleanup_timeout``
+      seconds of the loop clock to end, then the rest is abandoned.
+    """
+    loop = runner.get_loop()
+    if loop.is_closed():
+        return
+    left = [t for t in asyncio.all_tasks(loop) if not t.done()]
+    stuck = [t for t in left if isinstance(t.get_coro(), _Driver)]
+    others = [t for t in left if not isinstance(t.get_coro(), _Driver)]
+    if others:
+        for t in others:
+            t.cancel("the run is over: a task the plan left running is cancelled")
         try:
-            if coro is not None and hasattr(coro, "close"):
+            loop.run_until_complete(asyncio.wait(others, timeout=cleanup_timeout))
+        finally:
+            stuck += [t for t in others if not t.done()]
+    if stuck:
+        _abandon(loop, stuck)
+    else:
+        runner.close()
+
+
+def _abandon(loop: asyncio.AbstractEventLoop, tasks: list[asyncio.Task[Any]]) -> None:
+    """Give up on ``tasks`` (stuck beyond every bound) and close ``loop`` without waiting.
+
+    Each coroutine is closed once, with ``loop`` set as the running loop (nothing runs
+    it): its ``finally`` blocks run, and cleanup that awaits gets a pending future and
+    suspends, which ends the close (``RuntimeError``: it ignored ``GeneratorExit``). Such a
+    coroutine, one that refuses to close (it catches ``BaseException`` around its waits),
+    is never driven again: it is logged and made immortal (its reference count is raised
+    for good), since the garbage collector would otherwise close it a second time, with
+    no loop to suspend on, where a plan that swallows every exception spins forever (in
+    the collector, or at interpreter exit). A few hundred bytes per such task, for the
+    life of the process, is the price of never hanging.
+    """
+    events._set_running_loop(loop)
+    try:
+        for atask in tasks:
+            atask._log_destroy_pending = False  # type: ignore[attr-defined]
+            coro = atask.get_coro()
+            if coro is None or not hasattr(coro, "close"):
+                continue
+            chain = _await_chain(coro)
+            try:
                 coro.close()
-        except RuntimeError as exc:  # a coroutine that awaits in its cleanup
-            log.warning("abandoned task %r did not close cleanly: %s", atask.get_name(), exc)
-        atask._log_destroy_pending = False  # type: ignore[attr-defined]
+            except RuntimeError as exc:  # it awaited in its cleanup, or ignored the close
+                log.warning("abandoned task %r did not close cleanly: %s", atask.get_name(), exc)
+            except BaseException as exc:  # its cleanup raised: the run is over, report it
+                log.warning("abandoned task %r raised while closing: %r", atask.get_name(), exc)
+            # Closing an outer coroutine whose inner one refused detaches the inner one,
+            # still suspended: every suspended coroutine of the chain is kept.
+            refused = [c for c in chain if _suspended(c)]
+            if refused:
+                log.error(
+                    "abandoned task %r refused to close (%s catches BaseException around "
+                    "its waits); it is made immortal, never run again",
+                    atask.get_name(),
+                    getattr(refused[-1], "__qualname__", refused[-1]),
+                )
+                for c in refused:
+                    ctypes.pythonapi.Py_IncRef(ctypes.py_object(c))
+    finally:
+        events._set_running_loop(None)
     loop.close()
+
+
+def _await_chain(coro: Any) -> list[Any]:
+    """The coroutines and generators ``coro`` is suspended in, outermost first."""
+    chain: list[Any] = []
+    obj = coro
+    while obj is not None and len(chain) < 100_000:  # bounded, whatever the objects claim
+        if isinstance(obj, _Driver):  # a cpl task's driver: its body is what runs
+            obj = obj._coro
+            continue
+        if inspect.iscoroutine(obj) or inspect.isgenerator(obj):
+            chain.append(obj)
+        inner = getattr(obj, "cr_await", None)
+        obj = inner if inner is not None else getattr(obj, "gi_yieldfrom", None)
+    return chain
+
+
+def _suspended(obj: Any) -> bool:
+    frame = obj.cr_frame if inspect.iscoroutine(obj) else obj.gi_frame
+    return frame is not None
 
 
 class RunTimeout(TimeoutError):
@@ -294,6 +426,22 @@ async def _wait_dead_until(task: Task, deadline: float) -> bool:
             timer.cancel()
             task._drop_waiter(fut)
     return True
+
+
+async def _wait_dead_shielded(task: Task, deadline: float) -> bool:
+    """:func:`_wait_dead_until`, surviving cancellation: the caller was cancelled already
+    and its cleanup is what we wait for, so a repeated cancellation (anyio re-delivers its
+    scope's) does not cut the wait short; it is held off (:class:`DeferredCancellation`)
+    and dropped, since the caller re-raises the first one anyway. Whether ``task`` died."""
+    deferred = DeferredCancellation()
+    try:
+        while True:
+            try:
+                return await _wait_dead_until(task, deadline)
+            except asyncio.CancelledError as exc:
+                deferred.defer(exc)
+    finally:
+        deferred.release()
 
 
 def _wake(fut: asyncio.Future[None]) -> None:

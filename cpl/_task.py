@@ -502,12 +502,24 @@ class Task:
             self._close_aw()
         if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
             host.uncancel()  # the body swallowed its evaporation: take back our request
-        elif outcome is _FAILED and self.evaporation is None and host.cancelling():
+        elif (
+            outcome is _FAILED
+            and self.evaporation is None
+            and host.cancelling()
+            and _evaporating(parent)
+        ):
             # An ancestor's evaporation unwound this task and its cleanup raised: the task
             # failed in its cleanup (recorded, and logged at the run's end, as for a task of
             # its own), and the ancestor's evaporation goes on instead of that failure.
+            # (A cancellation from outside cpl, an anyio scope or asyncio.timeout, is not
+            # an evaporation: there the cleanup's failure propagates, as it would from any
+            # Python code, and the scope that cancelled sees it instead of a cancellation
+            # it never asked for.)
             self.evaporation = Evaporated("its parent was evaporated", parent.path)
-            reraise = asyncio.CancelledError()
+            # The cancellation the cleanup interrupted goes on, the same object: whoever
+            # else cancelled the asyncio task too (an anyio scope tells its own by the
+            # message) still recognises it.
+            reraise = _interrupted_cancellation(self.failure) or asyncio.CancelledError()
         reraise = await self._end_body(outcome, reraise)
         CURRENT_TASK.reset(token)
         self._inline_parent = None
@@ -1057,7 +1069,8 @@ async def with_task(
 async def run_joined(child: Task) -> Any:
     """Start a fresh CREATED ``child`` and join it, running it inline in the caller's
     asyncio task when it can (see :meth:`Task._run_inline`), on its own asyncio task
-    otherwise (a child with ordering constraints)."""
+    otherwise (a child with ordering constraints, or one MAX_INLINE_DEPTH levels down a chain
+    of inline tasks)."""
     if child._constraints or child._atask is not None or child._state is not _CREATED:
         child.start()
         return await join_owned(child)
@@ -1065,7 +1078,54 @@ async def run_joined(child: Task) -> Any:
         child._close_aw()
         child._finish(_EVAPORATED)
         return None
+    if _inline_chain_is_long(CURRENT_TASK.get()):
+        # Every MAX_INLINE_DEPTH levels the chain goes on in a fresh asyncio task: its
+        # stack starts empty, so a chain of any depth stays below the recursion limit,
+        # and evaporating it unwinds one bounded stretch at a time (each join_owned
+        # evaporates the next stretch and waits), not in one recursion down the chain.
+        child.start()
+        return await join_owned(child)
     return await child._run_inline()
+
+
+def _interrupted_cancellation(exc: BaseException | None) -> asyncio.CancelledError | None:
+    """The CancelledError that ``exc`` (raised by cleanup code) interrupted, if any: the
+    nearest one in its ``__context__`` chain."""
+    seen = 0
+    while exc is not None and seen < 100:  # bounded: a chain may be long, or a cycle
+        exc = exc.__context__
+        if isinstance(exc, asyncio.CancelledError):
+            return exc
+        seen += 1
+    return None
+
+
+def _evaporating(task: Task | None) -> bool:
+    """Whether ``task`` or one of the inline tasks it runs in (the chain sharing its
+    asyncio task) was asked to evaporate."""
+    while task is not None:
+        if task.evaporation is not None:
+            return True
+        task = task._inline_parent
+    return False
+
+
+#: How many tasks may run inline in one asyncio task (a chain of joined plan calls): each
+#: level costs a handful of Python frames, on the way down and again when a cancellation
+#: unwinds it, and the interpreter's recursion limit (1000 frames) is shared by the chain.
+MAX_INLINE_DEPTH = 32
+
+
+def _inline_chain_is_long(task: Task | None) -> bool:
+    """Whether ``task`` is the MAX_INLINE_DEPTH-th (or deeper) of a chain of inline tasks
+    sharing one asyncio task (a walk of at most MAX_INLINE_DEPTH steps)."""
+    depth = 0
+    while task is not None:
+        task = task._inline_parent
+        depth += 1
+        if depth >= MAX_INLINE_DEPTH:
+            return True
+    return False
 
 
 async def join_owned(child: Task) -> Any:

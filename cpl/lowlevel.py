@@ -4,6 +4,9 @@
 waiting on. It never awaits and uses no live display, so it may be called from a signal
 handler (``loop.add_signal_handler(signal.SIGUSR1, cpl.lowlevel.dump_task_tree)``) or a
 debugger to see where a hanging plan is stuck.
+
+:func:`stray_asyncio_tasks` lists the plain asyncio tasks a run created and left pending
+(invariant checks such as the demo's ``no_task_leaked`` use it).
 """
 
 from __future__ import annotations
@@ -12,11 +15,11 @@ import sys
 from collections.abc import Sequence
 from typing import IO
 
-from ._runtime import current_roots
+from ._runtime import current_roots, stray_asyncio_tasks
 from ._tree import TaskLike, snapshot
 from .display import render_text
 
-__all__ = ["dump_task_tree", "render_roots"]
+__all__ = ["dump_task_tree", "render_roots", "stray_asyncio_tasks"]
 
 _DUMP_WIDTH = 120
 

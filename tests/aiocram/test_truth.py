@@ -82,6 +82,33 @@ def test_leaked_task_fails_no_task_leaked(worlds):
     assert "forgotten" in report.violations["no_task_leaked"]
 
 
+def test_leaked_asyncio_task_fails_no_task_leaked(worlds):
+    """A plain asyncio task the plan started and left running: cpl would not even
+    evaporate it. Before, the invariant saw only cpl tasks and passed."""
+    import asyncio
+
+    true_world, belief_world = worlds
+    tasks: list[cpl.Task] = []
+    obs = TruthObserver(true_world, belief_world, lambda: tasks)
+
+    async def poller():
+        await asyncio.sleep(1000.0)
+
+    async def body():
+        asyncio.get_running_loop().create_task(poller(), name="forgotten-poller")
+        await cpl.sleep(0.1)
+        obs.body_returned()
+
+    from cpl.testing import MockClock
+
+    cpl.run(body, name="body", clock=MockClock(), cleanup_timeout=1.0)
+    true_world.park_arms("park")
+    obs.before_cleanup()
+    report = obs.measure({})
+    assert not report.invariants["no_task_leaked"]
+    assert "forgotten-poller" in report.violations["no_task_leaked"]
+
+
 def test_leaked_tasks_keeps_the_current_task_and_its_ancestors():
     seen = []
 

@@ -7,7 +7,10 @@ leaf's ``finally`` ran exactly once, and outcomes match an oracle where one is c
 from __future__ import annotations
 
 import collections
+import gc
+from collections.abc import Awaitable, Callable
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -191,3 +194,254 @@ def test_random_trees_keep_invariants(spec, kills):
     expected = oracle(spec)
     if not kills and expected is not None:
         assert (outcome[0] == "ok") == expected, (spec, outcome)
+
+
+# --------------------------------------------------------------------------------------
+# Issue 23: the shapes behind the runtime guarantees. Each run is guarded by a wall-clock
+# limit that cannot hang (run_guarded / call_guarded).
+
+
+@cpl.plan
+async def _nested(n: int, cleanups: list[int], leaf_delay: int) -> str:
+    try:
+        if n == 0:
+            await cpl.sleep(leaf_delay)
+            return "bottom"
+        return await _nested(n - 1, cleanups, leaf_delay)
+    finally:
+        cleanups.append(n)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    depth=st.integers(0, 1200),
+    leaf_delay=st.integers(0, 3).map(lambda n: 2 * n + 1),  # odd: never a tie with kill_at
+    kill_at=st.one_of(st.none(), st.integers(0, 4).map(lambda n: 2 * n)),
+    instrumented=st.booleans(),
+)
+def test_deep_chains_of_plan_calls_end_cleanly(depth, leaf_delay, kill_at, instrumented):
+    """Any depth of nested plan calls, evaporated at any time or not at all: no
+    RecursionError, every level's cleanup runs once (innermost first), no task alive."""
+    cleanups: list[int] = []
+    rec = Recorder()
+
+    async def main():
+        chain = cpl.spawn(_nested(depth, cleanups, leaf_delay), name="chain")
+        if kill_at is not None:
+            await cpl.sleep(kill_at)
+            chain.evaporate("random evaporation")
+        return await chain.join()
+
+    instruments = [rec] if instrumented else []
+    result = run_guarded(main, clock=MockClock(), instruments=instruments, wall_timeout=60.0)
+    finished = kill_at is None or kill_at > leaf_delay
+    assert result == ("bottom" if finished else None)
+    assert cleanups == list(range(depth + 1))
+    assert rec.illegal == []
+    assert [t for t in rec.tasks if t.alive] == []
+
+
+class _CleanupBroke(Exception):
+    pass
+
+
+async def _leaf_with_cleanup(delay: int, raises: bool) -> str:
+    try:
+        await cpl.sleep(delay)
+    finally:
+        if raises:
+            raise _CleanupBroke("cleanup")
+    return "done"
+
+
+@cpl.plan
+async def _as_plan(delay: int, raises: bool) -> str:
+    return await _leaf_with_cleanup(delay, raises)
+
+
+INLINE_SHAPES: dict[str, Callable[[int, bool], Awaitable[str]]] = {
+    "plan": lambda d, r: _as_plan(d, r),
+    "with_task": lambda d, r: cpl.with_task(_leaf_with_cleanup(d, r), name="joined"),
+    "tag": lambda d, r: cpl.tag("branch", _leaf_with_cleanup(d, r)),
+}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    shape=st.sampled_from(sorted(INLINE_SHAPES)),
+    nesting=st.integers(1, 3),
+    delay=st.integers(0, 3).map(lambda n: 2 * n + 1),  # odd: never a tie with the scope
+    move_on_after=st.integers(0, 4).map(lambda n: 2 * n),
+    raises=st.booleans(),
+)
+def test_cleanups_that_raise_under_anyio_cancellation(shape, nesting, delay, move_on_after, raises):
+    """An anyio scope cancels a nest of inline children whose innermost cleanup may
+    raise: the outcome is the value, the scope's cancellation, or the cleanup's failure,
+    never a bare CancelledError."""
+    import anyio
+
+    rec = Recorder()
+
+    async def nest(level: int):
+        if level == 0:
+            return await INLINE_SHAPES[shape](delay, raises)
+        return await cpl.with_task(nest(level - 1), name=f"level{level}")
+
+    async def main():
+        with anyio.move_on_after(move_on_after) as scope:
+            return ("value", await nest(nesting - 1))
+        return ("cancelled", scope.cancelled_caught)
+
+    try:
+        outcome = run_guarded(main, clock=MockClock(), instruments=[rec], wall_timeout=20.0)
+    except _CleanupBroke:
+        outcome = ("cleanup failed", None)
+    cancelled = move_on_after < delay
+    expected: tuple[str, object]
+    if not cancelled:
+        expected = ("cleanup failed", None) if raises else ("value", "done")
+    else:
+        expected = ("cleanup failed", None) if raises else ("cancelled", True)
+    assert outcome == expected
+    assert rec.illegal == []
+    assert [t for t in rec.tasks if t.alive] == []
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    shape=st.sampled_from(sorted(INLINE_SHAPES)),
+    nesting=st.integers(1, 3),
+    delay=st.integers(0, 3).map(lambda n: 2 * n + 1),
+    move_on_after=st.integers(0, 4).map(lambda n: 2 * n),
+    raises=st.booleans(),
+    kill_at=st.integers(0, 4).map(lambda n: 2 * n),  # may be the scope's very instant
+    victim=st.integers(0, 10),
+)
+def test_evaporations_meeting_anyio_cancellation_and_failing_cleanups(
+    shape, nesting, delay, move_on_after, raises, kill_at, victim
+):
+    """As above, and a cpl evaporation of a random task of the nest at a random time,
+    possibly in the same instant as the scope fires: every outcome is a value, the
+    scope's cancellation, the cleanup's failure or the evaporation; never a bare
+    CancelledError, never a task left alive."""
+    import anyio
+
+    rec = Recorder()
+
+    async def nest(level: int):
+        if level == 0:
+            return await INLINE_SHAPES[shape](delay, raises)
+        return await cpl.with_task(nest(level - 1), name=f"level{level}")
+
+    async def branch():
+        with anyio.move_on_after(move_on_after) as scope:
+            return ("value", await nest(nesting - 1))
+        return ("cancelled", scope.cancelled_caught)
+
+    async def main():
+        task = cpl.spawn(branch(), name="branch")
+        await cpl.sleep(kill_at)
+        alive = [t for t in task._subtree() if t.alive]
+        if alive:
+            alive[victim % len(alive)].evaporate("random evaporation")
+        return await task.join()
+
+    try:
+        outcome = run_guarded(main, clock=MockClock(), instruments=[rec], wall_timeout=20.0)
+    except _CleanupBroke:
+        outcome = ("cleanup failed", None)
+    assert outcome in (
+        ("value", "done"),
+        ("value", None),  # the inline child was evaporated: its join gives None
+        ("cancelled", True),
+        ("cleanup failed", None),
+        None,  # the branch itself was evaporated
+    ), outcome
+    assert rec.illegal == []
+    assert [t for t in rec.tasks if t.alive] == []
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    alternatives=st.lists(st.booleans(), min_size=1, max_size=4),
+    as_plan=st.booleans(),
+    decline=st.booleans(),
+)
+def test_handlers_before_unwinding_see_only_what_inner_forms_give_up(
+    alternatives, as_plan, decline
+):
+    """try_in_order of alternatives that succeed (True) or fail, under an outer
+    before-unwinding handler: the first success wins and the handler sees nothing; when
+    all fail, it sees the composite once."""
+    seen = []
+
+    async def alternative(i: int, ok: bool):
+        await cpl.sleep(1)
+        if not ok:
+            cpl.fail(f"alternative {i}")
+        return i
+
+    @cpl.plan
+    async def planned(i: int, ok: bool):
+        return await alternative(i, ok)
+
+    def handler(failure):
+        seen.append(failure)
+        if not decline:
+            cpl.return_("outer")
+
+    async def main():
+        steps = [(planned if as_plan else alternative)(i, ok) for i, ok in enumerate(alternatives)]
+        return await cpl.with_failure_handling(
+            lambda: cpl.try_in_order(*steps), {cpl.PlanFailure: handler}, before_unwinding=True
+        )
+
+    try:
+        result = run_guarded(main, clock=MockClock(), wall_timeout=20.0)
+    except cpl.CompositeFailure as composite:
+        result = composite
+    if any(alternatives):
+        assert (result, seen) == (alternatives.index(True), [])
+    else:
+        assert len(seen) == 1 and isinstance(seen[0], cpl.CompositeFailure)
+        assert len(seen[0].failures) == len(alternatives)
+        assert result is seen[0] if decline else result == "outer"
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    depth=st.integers(0, 3),
+    swallowers=st.integers(1, 3),
+    at_leaf=st.booleans(),
+)
+def test_plans_that_swallow_base_exception_end_within_their_bounds(depth, swallowers, at_leaf):
+    """Plan code that catches BaseException around its waits and loops: the run ends with
+    RunTimeout naming it, and no such loop is re-driven without bound."""
+    from cpl.testing import call_guarded
+
+    rounds: collections.Counter[int] = collections.Counter()
+    limit = 10_000  # only reached if a loop were re-driven: the assertion below fails
+
+    async def swallow(k: int):
+        while rounds[k] < limit:
+            rounds[k] += 1
+            try:
+                await cpl.sleep(10)
+            except BaseException:  # the misbehaviour under test
+                pass
+
+    async def nest(level: int):
+        if level == 0:
+            if at_leaf:
+                return await cpl.par(*(swallow(k) for k in range(swallowers)))
+            return await swallow(0)
+        return await cpl.with_task(nest(level - 1), name=f"level{level}")
+
+    with pytest.raises(cpl.RunTimeout) as exc:
+        call_guarded(
+            lambda: cpl.run(nest, depth, clock=MockClock(), timeout=5, cleanup_timeout=5),
+            wall_timeout=30.0,
+        )
+    assert exc.value.stuck
+    gc.collect()  # a coroutine left to the collector would be closed (and spin) here
+    assert all(n < 20 for n in rounds.values()), rounds
