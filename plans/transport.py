@@ -14,6 +14,7 @@ sink); fetch and deliver run inside :func:`plans.reasoning.with_projected_task_t
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Iterator
 from typing import Any
 
@@ -63,17 +64,28 @@ async def transport(
     true; CRAM's demo disables it) and the environment can imagine; otherwise it is a
     pass-through. Cleanup: the container is sealed in a ``finally`` that runs
     shielded, so it also runs when the transport is evaporated (the evaporation is
-    re-raised afterwards). Returns the delivered object designator, or ``None`` when it was
-    dropped at the sink. ``viewpoint_reasoning`` (the ``viewpoint-reasoning`` property,
-    default false): the search chooses where to look from by projection
-    (:mod:`plans.viewpoints`)."""
+    re-raised afterwards), also when it is evaporated while accessing (the drawer may be
+    open by then); an accessing that fails leaves nothing to seal. Returns the delivered
+    object designator, or ``None`` when it was dropped at the sink.
+    ``viewpoint_reasoning`` (the ``viewpoint-reasoning`` property, default false): the
+    search chooses where to look from by projection (:mod:`plans.viewpoints`)."""
     container = location.get("in")
     accessible = container is None
-    if not accessible:
-        await perform(
-            an.action(type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE)
-        )
+    # Invariant: True once the container may be open (accessing done, or evaporated while
+    # it ran: its opening motion may have moved the drawer); the finally then seals it.
+    opened = False
     try:
+        if not accessible:
+            try:
+                await perform(
+                    an.action(
+                        type="accessing", location=location, arm="left", distance=DEFAULT_DISTANCE
+                    )
+                )
+            except asyncio.CancelledError:  # evaporated part-way: the drawer may be open
+                opened = True
+                raise
+            opened = True
         try:
             found = await perform(
                 an.action(
@@ -139,7 +151,7 @@ async def transport(
             found = await search_floor(found, failure)
             return await with_projected_task_tree(fetch_and_deliver, projection_runs, enabled=False)
     finally:
-        if not accessible:
+        if opened:
             sealing = an.action(
                 type="sealing", location=location, arm="left", distance=DEFAULT_DISTANCE
             )
