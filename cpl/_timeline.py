@@ -190,6 +190,10 @@ class _Driver:
         self._waiting[timeline] = None
         self._post()
 
+    def busy(self) -> bool:
+        """Whether anything else is ready to run now."""
+        return bool(self._ready)
+
     def when_quiescent(self, fut: asyncio.Future[None]) -> None:
         """Resolve ``fut`` once the loop is quiescent (before any timeline jumps)."""
         self._idle.append(fut)

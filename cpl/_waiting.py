@@ -125,12 +125,19 @@ async def wait_quiescent() -> None:
     watches it) lets them react before the next step starts, whatever the number of
     task switches their reaction takes. On a loop without asyncio's ready queue (not
     asyncio's own loop), it is one switch (``cpl.sleep(0)``)."""
+    task = CURRENT_TASK.get()
+    if task is not None and task._suspend_requested:
+        await task._suspend_here()
+    try:  # the one switch (sleep(0) without its bookkeeping: this runs for every motion)
+        await asyncio.sleep(0)
+    except asyncio.CancelledError:
+        if task is not None and task.evaporation is not None:
+            raise task.evaporation from None
+        raise
     loop = asyncio.get_running_loop()
     driver = quiescence_driver(loop)
-    if driver is None:
-        await sleep(0)
-        return
-    task = CURRENT_TASK.get()
+    if driver is None or not driver.busy():
+        return  # most often nothing else became ready meanwhile
     while True:
         fut: asyncio.Future[None] = loop.create_future()
         driver.when_quiescent(fut)
