@@ -166,3 +166,46 @@ def test_bad_timelines_are_refused() -> None:
             pass
     with pytest.raises(ValueError, match="finite"):
         cpl.Timeline(start=float("nan"))
+
+
+def test_wait_quiescent_returns_after_every_ready_task_ran(mrun: Any) -> None:
+    # a reaction that takes several task switches has happened when wait_quiescent returns
+    reacted: list[bool] = []
+
+    async def slow_reaction() -> None:
+        for _ in range(5):
+            await asyncio.sleep(0)
+        reacted.append(True)
+
+    async def main() -> list[bool]:
+        task = cpl.spawn(slow_reaction(), name="reaction")
+        await cpl.wait_quiescent()
+        seen = list(reacted)
+        await task.join()
+        return seen
+
+    assert mrun(main) == [True]
+
+
+def test_wait_quiescent_runs_before_a_timeline_jumps(mrun: Any) -> None:
+    async def main() -> tuple[float, float]:
+        with cpl.on_timeline(cpl.Timeline()):
+            sleeper = cpl.spawn(cpl.sleep(5), name="sleeper")
+            await cpl.wait_quiescent()
+            before = cpl.current_time()
+            await sleeper.join()
+            return before, cpl.current_time()
+
+    assert mrun(main) == (0.0, 5.0)
+
+
+def test_a_timeline_belongs_to_one_loop() -> None:
+    timeline = cpl.Timeline()
+
+    async def sleep_on_it() -> None:
+        with cpl.on_timeline(timeline):
+            await cpl.sleep(1)
+
+    cpl.run(sleep_on_it)
+    with pytest.raises(RuntimeError, match="another event loop"):
+        cpl.run(sleep_on_it)
