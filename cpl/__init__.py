@@ -65,8 +65,9 @@ from ._suspension import on_suspension, with_task_suspended
 from ._tags import Tags, with_tags
 from ._task import Task, current_task, spawn, with_task
 from ._task_fluents import task_alive, task_dead, task_failed, task_succeeded
+from ._timeline import Timeline, current_time, current_timeline, on_timeline
 from ._tree import FailureInfo, TaskNode, snapshot
-from ._waiting import shielded, sleep
+from ._waiting import shielded, sleep, wait_quiescent
 
 __all__ = [
     "Clock",
@@ -96,10 +97,13 @@ __all__ = [
     "Tags",
     "Task",
     "TaskNode",
+    "Timeline",
     "ancestors",
     "cleanup_failures",
     "current_clock",
     "current_task",
+    "current_time",
+    "current_timeline",
     "fail",
     "find_tasks",
     "fl_and",
@@ -110,6 +114,7 @@ __all__ = [
     "fl_value_changed",
     "load_events",
     "on_suspension",
+    "on_timeline",
     "par",
     "par_loop",
     "partial_order",
@@ -139,6 +144,7 @@ __all__ = [
     "try_each_in_order",
     "try_in_order",
     "wait_for",
+    "wait_quiescent",
     "walk",
     "whenever",
     "with_failure_handling",

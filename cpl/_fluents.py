@@ -21,6 +21,7 @@ from threading import get_ident
 from typing import Any, Generic, Literal, TypeVar, overload
 
 from ._scheduling import CURRENT_TASK, block_until
+from ._timeline import current_time
 
 __all__ = [
     "Fluent",
@@ -650,9 +651,10 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
     """Wait until ``fluent.value`` is truthy and return that value.
 
     Returns at once if it already is. Every pulse re-checks (a pulse that leaves the value
-    falsy does not release). Returns ``None`` when ``timeout`` seconds of loop time pass
-    first, no exception. Each check reads ``value`` exactly once, so on a pulse fluent a
-    check consumes. Given a non-fluent, returns it if truthy and raises ``ValueError`` if
+    falsy does not release). Returns ``None`` when ``timeout`` seconds of the current time
+    (the current :class:`~cpl.Timeline`'s, else the loop clock's) pass first, no
+    exception. Each check reads ``value`` exactly once, so on a pulse fluent a check
+    consumes. Given a non-fluent, returns it if truthy and raises ``ValueError`` if
     falsy (it could never change).
 
     Blocks through :func:`~cpl._scheduling.block_until`: a suspended task re-checks after
@@ -670,7 +672,7 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
     if timeout is not None:
         if timeout != timeout:
             raise ValueError("wait_for timeout is NaN; pass seconds >= 0 or None")
-        deadline = asyncio.get_running_loop().time() + timeout
+        deadline = current_time() + timeout
     value = fluent.value
     if value:
         return value
@@ -707,7 +709,7 @@ async def wait_for(fluent: Any, timeout: float | None = None) -> Any:
             value = fluent.value
             if value:
                 return value
-            if deadline is not None and asyncio.get_running_loop().time() >= deadline:
+            if deadline is not None and current_time() >= deadline:
                 return None  # block_until said the deadline passed (no local: a smaller frame)
     finally:
         if task is not None:

@@ -128,7 +128,8 @@ class _TimeoutPolicy(Policy):
 
 
 def timeout_policy(seconds: float) -> Policy:
-    """CRAM's ``timeout-policy``: the body must finish within ``seconds`` of the loop clock;
+    """CRAM's ``timeout-policy``: the body must finish within ``seconds`` of the current time
+    (the current :class:`Timeline`'s, e.g. projected time, else the loop clock);
     otherwise it is evaporated and :class:`PolicyTimeout` (a plan failure) is raised."""
     return _TimeoutPolicy(seconds)
 

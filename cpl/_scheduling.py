@@ -21,6 +21,8 @@ import sys
 from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any
 
+from ._timeline import call_at, current_time
+
 if TYPE_CHECKING:
     from ._task import Task
 
@@ -37,7 +39,8 @@ def _wake(fut: asyncio.Future[Any]) -> None:
 
 
 async def block_until(fut: asyncio.Future[Any], deadline: float | None = None) -> bool:
-    """Block the current task until ``fut`` is done or the loop clock reaches ``deadline``.
+    """Block the current task until ``fut`` is done or the current time (the current
+    :class:`~cpl.Timeline`'s, else the loop clock's) reaches ``deadline``.
 
     Returns ``True`` when woken (``fut`` done, or a spurious wake-up by a suspension: the
     caller must re-check its condition) and ``False`` when ``deadline`` passed. Suspends the
@@ -53,9 +56,9 @@ async def block_until(fut: asyncio.Future[Any], deadline: float | None = None) -
         return True
     timer = None
     if deadline is not None:
-        if loop.time() >= deadline:
+        if current_time() >= deadline:
             return False
-        timer = loop.call_at(deadline, _wake, fut)
+        timer = call_at(loop, deadline, _wake, fut)
     if task is not None:
         task._blocked_on = fut
     try:
@@ -73,7 +76,7 @@ async def block_until(fut: asyncio.Future[Any], deadline: float | None = None) -
             timer.cancel()
         if task is not None:
             task._blocked_on = None
-    if deadline is not None and loop.time() >= deadline:
+    if deadline is not None and current_time() >= deadline:
         return False
     return True
 

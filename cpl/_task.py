@@ -44,6 +44,7 @@ from ._failure_handling import signal_failure
 from ._failures import Evaporated
 from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+from ._timeline import current_time
 
 if TYPE_CHECKING:
     from ._fluents import Fluent
@@ -347,11 +348,11 @@ class Task:
     # A form node (kind par, pursue, ...) has no asyncio task of its own: the form's code,
     # running in the owner's task, drives its status through these three methods.
     def _begin_form(self) -> None:
-        self.start_time = asyncio.get_running_loop().time()
+        self.start_time = current_time()
         self._set_state(_RUNNING)
 
     def _end_form(self, outcome: Status, value: Any, failure: BaseException | None) -> None:
-        self.end_time = asyncio.get_running_loop().time()
+        self.end_time = current_time()
         if outcome is _SUCCEEDED:
             self.result = value
         else:
@@ -395,8 +396,7 @@ class Task:
             self._close_aw()
             self._finish(_EVAPORATED)
             return
-        loop = asyncio.get_running_loop()
-        self.start_time = loop.time()
+        self.start_time = current_time()
         self._set_state(_RUNNING)
         outcome = _SUCCEEDED
         reraise: BaseException | None = None
@@ -465,7 +465,7 @@ class Task:
         self._atask = host
         self._inline_parent = parent
         token = CURRENT_TASK.set(self)
-        self.start_time = asyncio.get_running_loop().time()
+        self.start_time = current_time()
         self._set_state(_RUNNING)
         outcome = _SUCCEEDED
         reraise: BaseException | None = None
@@ -577,8 +577,7 @@ class Task:
             aw.close()
 
     def _finish(self, outcome: Status) -> None:
-        loop = asyncio.get_running_loop()
-        self.end_time = loop.time()
+        self.end_time = current_time()
         self._waiting = None
         if self._state is _SUSPENDED and outcome is _SUCCEEDED:
             self._set_state(_RUNNING)
@@ -897,7 +896,7 @@ class _Driver:
             task = self._task
             assert task is not None
             CURRENT_TASK.set(task)
-            task.start_time = asyncio.get_running_loop().time()
+            task.start_time = current_time()
             task._set_state(_RUNNING)
             task._close_aw()
             if args:  # the old (type, value, traceback) form
@@ -955,7 +954,7 @@ class _Driver:
             coro = self._coro = task._main()
             self._task = None
             return coro
-        task.start_time = asyncio.get_running_loop().time()
+        task.start_time = current_time()
         task._set_state(_RUNNING)
         aw = task._aw
         if type(aw) is CoroutineType:  # the common case: no call to _take_body

@@ -14,6 +14,14 @@ Subclasses implement :meth:`ProcessModule.accepts` and :meth:`ProcessModule.exec
   :class:`executive.BlockingProcessModule` (``blocking = True``): its synchronous
   ``execute_blocking`` runs in a worker thread, and evaporation first asks the driver to
   stop (a :class:`executive.CancelRequest`) and waits for it, then calls ``on_cancel``.
+- **Scheduling point.** Before it starts, every goal waits until every other task that
+  can run has run (:func:`cpl.wait_quiescent`: at least one switch to the loop), in
+  the framework (so every module does, even one whose ``execute`` never awaits, as the
+  projected modules' teleports): ``par`` branches interleave motion by motion, a monitor
+  in ``pursue`` sees every motion, and an evaporation requested during a motion takes
+  effect at the next one at the latest (the goal then never starts, nothing moves).
+  Deliberate difference from CRAM: CRAM's process modules run in threads, preempted
+  anywhere; asyncio tasks switch only where they await, so the framework adds the await.
 - **Cancellation.** Evaporating a goal's task while ``execute`` runs calls
   ``on_cancel(motion)`` once, shielded from further evaporation and limited to
   ``cancel_timeout`` seconds (a failure or time-out of the hook is logged, never raised),
@@ -177,6 +185,11 @@ class ProcessModule(abc.ABC):
                         await ahead.join()
                     except Exception:  # the goal ahead failed: our turn may have come
                         pass
+                # Every goal is a scheduling point, whatever the module: every other task
+                # that can run runs first (a sibling in ``par``, a monitor in ``pursue``
+                # reacting to the last motion), and an evaporation or suspension requested
+                # meanwhile takes effect here, before the motion starts.
+                await cpl.wait_quiescent()
             except asyncio.CancelledError as exc:
                 goal.evaporation = exc
                 raise

@@ -312,7 +312,8 @@ class FakeProcessModule(ProcessModule):
       raises ``failure`` (an instance, raised as is, or a class, instantiated without
       arguments);
     - ``result``: the value of each goal, or a callable ``result(motion)``;
-    - ``delay``: seconds of (loop clock) time each goal takes, via ``cpl.sleep``;
+    - ``delay``: seconds each goal takes, via ``cpl.sleep`` (the loop clock, or the current
+      :class:`cpl.Timeline` inside a projection).
     - ``resources``: the robot parts it drives (:class:`executive.Resource`; the
       environment's parts are its modules', see :attr:`executive.Environment.resources`).
 

@@ -58,8 +58,10 @@ def imagining() -> str | None:
 @dataclass(frozen=True)
 class Imagined:
     """One imagined alternative: ``outcome`` ``"succeeded"`` or the failure class name;
-    ``retries`` granted in it; ``sim_s`` its simulated duration; ``driven_m`` how far the
-    imagined base moved; ``value`` what it returned (``None`` when it failed)."""
+    ``retries`` granted in it; ``sim_s`` its projected duration (seconds on the
+    imagination's timeline, which its motions' modelled durations advance; not the wall
+    or loop time imagining took); ``driven_m`` how far the imagined base moved; ``value``
+    what it returned (``None`` when it failed)."""
 
     name: str
     outcome: str

@@ -7,6 +7,23 @@ projection location rules (costmaps); it is marked ``projecting``, so projection
 reasoning is a pass-through inside it (as in CRAM). It acts on the given world itself
 (CRAM's copy of the world is commented out too). Leaving the block evaporates any goal
 still running and leaves every module offline.
+
+**Projected time.** The block runs on its own :class:`cpl.Timeline` (a nested block
+shares the outer one's), which starts at the current time when the block is entered and
+moves only when the event loop has nothing else to do, to the next projected deadline:
+each motion takes its modelled duration (:mod:`projection._durations`) there, and
+``cpl.sleep``, ``cpl.wait_for(timeout=)``, ``cpl.timeout_policy`` and
+``cpl.shielded(timeout=)`` inside the block count projected seconds, as they count robot
+seconds on the robot. No loop time passes for them: imagining stays as fast as the
+computation, even when the loop runs in real time (``--speed 1``). Tasks started inside
+the block are stamped in projected time (``start_time``/``end_time``: the time when the
+block was entered plus projected seconds), so an imagined task's duration is its
+projected duration, not the wall time its computation took; the imagined subtree's
+stamps are not robot times and may run past its (robot-timed) parent's end.
+
+Deliberate difference from CRAM: CRAM's projection has had no clock since 2017: motions
+are instantaneous, sleeps and time-outs are wall-clock (inert or load-dependent), and
+imagined events carry the wall or ROS time of a fast run.
 """
 
 from __future__ import annotations
@@ -15,6 +32,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+import cpl
 import executive
 from projection._process_modules import projection_process_modules
 from projection._world import World
@@ -58,5 +76,9 @@ async def with_projected_robot(
         rules=rules,
         projecting=True,
     )
-    async with executive.environment(env):
-        yield env
+    timeline = cpl.current_timeline()
+    if timeline is None:  # a nested block shares the projected time of the outer one
+        timeline = cpl.Timeline(start=cpl.current_time(), name=name)
+    with cpl.on_timeline(timeline):
+        async with executive.environment(env):
+            yield env

@@ -1,7 +1,17 @@
 """The six projection process modules (CRAM's ``pr2-proj-navigation``, ``-torso``, ``-ptu``,
 ``-perception``, ``-grippers``, ``-arms``): each resolves its motion designator to a
 :class:`executive.MotionCommand` and calls the :class:`~projection._world.World`'s
-low-level function, which teleports (projected motions are instantaneous, as in CRAM).
+low-level function, which teleports (as in CRAM), then lets the motion's modelled
+duration (:mod:`projection._durations`) pass on the projection's timeline (the
+:class:`cpl.Timeline` that ``with_projected_robot`` makes current; without one a motion
+takes no time). The effect lands at the start: a motion evaporated during its duration
+is complete in the projected world (a projected motion is atomic); the evaporation takes
+effect at the next motion.
+
+Deliberate difference from CRAM: CRAM's projected motions take no time and its
+projection has no clock since 2017 (monitors and time-outs are inert there); here they
+take projected time, so ``cpl.sleep``, ``wait_for(timeout=)`` and ``timeout_policy`` in a
+monitor mean in projection what they mean on the robot.
 
 =============  ===========================================================  ================
 module         motion types                                                 world function
@@ -35,11 +45,13 @@ from typing import Any, ClassVar
 
 import pybullet as pb
 
+import cpl
 import executive
 from executive import Designator, MotionCommand, Pose, ProcessModule, Resource, an, equate
 from executive.events import ObjectPerceived, emit
 from executive.failures import ManipulationGoalNotReached, PtuGoalNotReached
 from executive.knowledge import ARMS
+from projection._durations import DETECTION_TIME, RobotState, motion_seconds, robot_state
 from projection._world import World
 
 __all__ = [
@@ -91,7 +103,21 @@ class ProjectionProcessModule(CommandDispatch):
         self.world = world
 
     async def execute(self, motion: Designator) -> Any:
-        return self.run(self.command_of(motion), motion)
+        command = self.command_of(motion)
+        timeline = cpl.current_timeline()
+        if timeline is None:  # no projected time here: the motion takes none
+            return self.run(command, motion)
+        before = robot_state(self.world)
+        result = self.run(command, motion)
+        seconds = self.seconds(before, robot_state(self.world))
+        if seconds > 0:
+            await cpl.sleep(seconds)
+        return result
+
+    def seconds(self, before: RobotState, after: RobotState) -> float:
+        """The projected duration of a motion that took the robot from ``before`` to
+        ``after`` (:func:`projection._durations.motion_seconds`)."""
+        return motion_seconds(before, after)
 
     @abc.abstractmethod
     def run(self, command: MotionCommand, motion: Designator) -> Any:
@@ -241,6 +267,9 @@ class PerceptionPM(ProjectionProcessModule):
 
     def __init__(self, world: World) -> None:
         super().__init__(world, "perception")
+
+    def seconds(self, before: RobotState, after: RobotState) -> float:
+        return DETECTION_TIME
 
     def run(self, command: MotionCommand, motion: Designator) -> Designator:
         wanted: Designator = command.arguments["object"]

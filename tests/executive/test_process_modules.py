@@ -232,3 +232,66 @@ def test_environment_rejects_non_modules(mrun: Any) -> None:
 
     with pytest.raises(TypeError, match="ProcessModule"):
         mrun(main, name="bad-env")
+
+
+# -- every goal is a scheduling point ------------------------------------------------
+
+
+def test_par_branches_interleave_motion_by_motion(mrun: Any) -> None:
+    # an instantaneous module (its execute never awaits) still yields once per goal
+    order: list[str] = []
+
+    async def branch(name: str) -> None:
+        for i in range(5):
+            await perform(going(i))
+            order.append(name)
+
+    async def main() -> None:
+        async with with_process_modules(FakeProcessModule(accepts="going")):
+            await cpl.par(branch("A"), branch("B"))
+
+    mrun(main)
+    assert "".join(order) == "ABABABABAB"
+
+
+def test_a_pursue_watcher_sees_every_motion(mrun: Any) -> None:
+    ticks = [0]
+
+    async def watcher() -> None:
+        while True:
+            ticks[0] += 1
+            await cpl.sleep(0)
+
+    async def ten() -> None:
+        for i in range(10):
+            await perform(going(i))
+
+    async def main() -> None:
+        async with with_process_modules(FakeProcessModule(accepts="going")):
+            await cpl.pursue(watcher(), ten())
+
+    mrun(main)
+    assert ticks[0] >= 10
+
+
+def test_an_evaporation_takes_effect_at_the_next_motion(mrun: Any) -> None:
+    # a monitor fires during the third motion: the fourth never starts
+    pm = FakeProcessModule(accepts="going")
+    third = cpl.Fluent(False, name="third-motion")
+
+    class Signalling(FakeProcessModule):
+        async def execute(self, motion: Any) -> Any:
+            if len(pm.calls) == 2:
+                third.value = True
+            return await pm.execute(motion)
+
+    async def ten() -> None:
+        for i in range(10):
+            await perform(going(i))
+
+    async def main() -> None:
+        async with with_process_modules(Signalling(accepts="going")):
+            await cpl.pursue(cpl.wait_for(third), ten())
+
+    mrun(main)
+    assert len(pm.calls) == 3 and len(pm.completed) == 3

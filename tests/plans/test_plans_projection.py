@@ -3,10 +3,14 @@ transport, and the table-setting demo."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
+import cpl
 import plans
-from executive import Pose, a, an, knowledge, perform
+from executive import Pose, a, an, current_environment, knowledge, perform
+from executive.events import ContainerOpened, ObjectAttached
 
 projection = pytest.importorskip("projection")
 
@@ -159,3 +163,67 @@ def test_random_scenes_spawn_for_every_seed_without_overlap(seed: int) -> None:
             assert deep == [], (name, deep)
     finally:
         world.close()
+
+
+def test_a_grasp_monitor_stops_a_projected_transport_at_the_next_motion(mrun):
+    # a monitor in pursue that fires when the spoon is grasped: the transport's next
+    # motion never starts (the spoon is not lifted, carried or placed), and its cleanup
+    # still runs (the drawer is closed, nothing is held)
+    world = projection.World(seed=1)
+    fired = []
+
+    async def main():
+        async with projection.with_projected_robot(world):
+            grasped = cpl.Fluent(False, name="spoon-grasped")
+            current_environment().subscribe(
+                ObjectAttached, lambda _e: setattr(grasped, "value", True)
+            )
+
+            async def monitor():
+                await cpl.wait_for(grasped)
+                fired.append(cpl.current_time())
+
+            await cpl.pursue(monitor(), plans.table_setting(world, ("spoon",), True, 1))
+
+    mrun(main, name="grasp-monitor")
+    assert len(fired) == 1
+    at = fired[0]
+    tree: Any = cpl.task_tree("grasp-monitor")
+    goals: list[Any] = [
+        n
+        for n in cpl.walk(tree)
+        if n.kind == "task" and n.start_time is not None and n.start_time >= at
+    ]
+    # every motion the plan itself would have gone on with was evaporated before it started
+    planned = [n for n in goals if any(p in ("fetch", "deliver") for p in n.path)]
+    assert planned and all(n.status is cpl.Status.EVAPORATED for n in planned)
+    assert all(n.status is not cpl.Status.EVAPORATED for n in goals if n not in planned)
+    assert not any(n.name.startswith("deliver") for n in cpl.walk(tree))
+    assert not on_island(world, "spoon-1")
+    assert world.attachments == {}
+    assert world.joint_position("sink_area_left_upper_drawer_main_joint") == pytest.approx(
+        0, abs=1e-6
+    )
+
+
+def test_a_transport_evaporated_while_opening_the_drawer_closes_it(mrun):
+    # the monitor fires when the drawer is open, in the middle of accessing: the
+    # transport stops there (the spoon is not fetched) and its cleanup closes the drawer
+    world = projection.World(seed=1)
+
+    async def main():
+        async with projection.with_projected_robot(world):
+            opened = cpl.Fluent(False, name="drawer-opened")
+            current_environment().subscribe(
+                ContainerOpened, lambda _e: setattr(opened, "value", True)
+            )
+            await cpl.pursue(cpl.wait_for(opened), plans.table_setting(world, ("spoon",), True, 1))
+
+    mrun(main, name="drawer-monitor")
+    tree: Any = cpl.task_tree("drawer-monitor")
+    assert not any(n.name.startswith(("fetch", "deliver")) for n in cpl.walk(tree))
+    assert not on_island(world, "spoon-1")
+    assert not any(link.startswith(("l_", "r_")) for link in world.attachments.values())
+    assert world.joint_position("sink_area_left_upper_drawer_main_joint") == pytest.approx(
+        0, abs=1e-6
+    )
