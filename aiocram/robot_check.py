@@ -120,11 +120,11 @@ def check_robot(
                 j = tree.joints[jn]
                 (q,) = robot.joint_values((jn,))
                 step = 0.2 if q + 0.2 <= j.upper else -0.2
-                before = robot.link_pose(arm.tool_frame)
+                start = robot.link_pose(arm.tool_frame)
                 robot.set_joints({jn: q + step})
-                after = robot.link_pose(arm.tool_frame)
+                moved = robot.link_pose(arm.tool_frame)
                 robot.set_joints({jn: q})
-                if _distance(before[0], after[0]) + _angle(before[1], after[1]) < _MOVES:
+                if _distance(start[0], moved[0]) + _angle(start[1], moved[1]) < _MOVES:
                     raise RobotCheckFailed(
                         f"arm {arm.name!r}: joint {jn!r} does not move the tool frame "
                         f"{arm.tool_frame!r}"

@@ -529,9 +529,9 @@ class RobotDescription:
                         r, f"{where}.joints[{i}]", f"{jn!r} is already {used[jn]}"
                     )
                 used[jn] = f"{where}.joints[{i}]"
-            for name, values in arm.states.items():
-                for jn, v in zip(arm.joints, values):
-                    self._within(tree, f"{where}.states[{name!r}]", tree.joints[jn], (v,))
+            for state, joint_values in arm.states.items():
+                for jn, v in zip(arm.joints, joint_values):
+                    self._within(tree, f"{where}.states[{state!r}]", tree.joints[jn], (v,))
             g = arm.gripper
             for i, jn in enumerate(g.joints):
                 fld = f"{where}.gripper.joints[{i}]"

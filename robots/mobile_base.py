@@ -122,7 +122,7 @@ def mount_arm(name: str, arm_urdf: Path, arm_root: str, extra: Sequence[ET.Eleme
     ``<link>``/``<joint>`` elements (e.g. a tool frame the arm's URDF lacks)."""
     arm = ET.parse(arm_urdf).getroot()
     absolute_meshes(arm, arm_urdf.parent)
-    links = {el.get("name") for el in arm.findall("link")}
+    links = {str(el.get("name")) for el in arm.findall("link")}
     if arm_root not in links:
         raise ValueError(
             f"{arm_urdf} has no link {arm_root!r} to mount; its links: {sorted(links)}"
