@@ -11,9 +11,10 @@ The base and mast:
   ``torso_lift_link`` (a sleeve over the column) whose origin is 0.60 m over the floor at 0,
   0.12 m ahead of the base's centre;
 - ``arm_mount_joint``: fixed, the arm's root link on the torso's origin, facing forward;
-- a mast on the torso 0.30 m behind the arm: ``head_pan_joint`` (yaw) 0.55 m over the
-  torso, ``head_tilt_joint`` (pitch), a camera box and ``camera_optical_frame`` (z forward,
-  x right, y down): 1.20 m over the floor at torso 0, 1.60 m at 0.40.
+- a mast on the torso 0.10 m behind and 0.22 m to the right of the arm's base (clear of
+  an arm folded back): ``head_pan_joint`` (yaw) 0.55 m over the torso,
+  ``head_tilt_joint`` (pitch), a camera box and ``camera_optical_frame`` (z forward, x
+  right, y down): 1.20 m over the floor at torso 0, 1.60 m at 0.40.
 
 The added parts are boxes (convex collision shapes).
 """
@@ -36,7 +37,9 @@ CAMERA_FRAME = "camera_optical_frame"
 _BASE_SIZE = (0.60, 0.60, 0.30)
 _BASE_LINK_Z = 0.051  # base_link over base_footprint (as the PR2-like robot)
 _TORSO_XYZ = (0.12, 0.0, 0.60 - _BASE_LINK_Z)  # torso origin in base_link at torso 0
-_MAST_X = -0.30  # mast behind the arm, in the torso frame
+#: the mast in the torso frame: behind the arm's base and to its right, so that an arm
+#: folded back (elbow behind the shoulder) clears it, and the camera sees past the arm
+_MAST_XY = (-0.10, -0.22)
 _PAN_Z = 0.55  # pan joint over the torso origin
 _CAMERA_XYZ = (0.05, 0.0, 0.05)  # camera in the tilt link
 _DARK = "0.2 0.2 0.22 1"
@@ -166,7 +169,7 @@ def mount_arm(name: str, arm_urdf: Path, arm_root: str, extra: Sequence[ET.Eleme
             limits=(*TORSO_RANGE, 1000.0, 0.1),
         ),
         _joint("arm_mount_joint", "fixed", "torso_lift_link", arm_root),
-        _joint("mast_joint", "fixed", "torso_lift_link", "mast_link", (_MAST_X, 0.0, 0.0)),
+        _joint("mast_joint", "fixed", "torso_lift_link", "mast_link", (*_MAST_XY, 0.0)),
         _joint(
             "head_pan_joint",
             "revolute",

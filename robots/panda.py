@@ -101,10 +101,12 @@ DESCRIPTION = RobotDescription(
             # like the PR2-like robot's 0.7 m of its ~0.95 m, from a mount 0.12 m ahead
             reach=Reach(in_reach_distance=0.8, minimal_distance=0.2),
             states={
-                # folded over the base, the hand down in front of the torso
-                "park": (0.0, -1.76, 0.0, -3.0, 0.0, 1.5, 0.785),
-                # a held object in front of the torso, hand level
-                "carry": (0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785),
+                # folded over the base, the hand down in front of the torso (both
+                # states: the tool over the base, no part of the arm in the base, torso
+                # or mast; tested)
+                "park": (0.0, -1.7, 0.0, -3.0, 0.0, 1.3, 0.785),
+                # a held object over the front of the base, the hand pointing down
+                "carry": (0.0, -1.4, 0.0, -2.9, 0.0, 1.5, 0.785),
             },
         ),
     ),

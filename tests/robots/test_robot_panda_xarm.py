@@ -112,6 +112,31 @@ def test_the_panda_loads_and_each_chain_moves(client: int) -> None:
         robot.set_gripper("left", 0.1)
 
 
+def test_the_pandas_named_states_keep_the_arm_over_the_base_and_clear_of_it(
+    client: int,
+) -> None:
+    robot = load_robot(PANDA, client)
+    (arm,) = PANDA.arms
+    tree = kinematic_tree(client, robot.body)
+    shoulder = tree.joints[arm.joints[0]].child
+    moving = {i for name, i in robot.link_index.items() if tree.is_below(name, shoulder)}
+    assert len(moving) == 12  # link1..7, link8, hand, two fingers, grasp target
+    body = robot.body
+    half = 0.30  # the base box's half width
+    for torso in (PANDA.torso.lower, PANDA.torso.upper):
+        robot.set_torso(torso)
+        for state in arm.states:
+            robot.set_state(state)
+            x, y, _ = robot.link_pose(arm.tool_frame)[0]
+            assert abs(x) < half and abs(y) < half, (state, x, y)
+            hits = [
+                (c[3], c[4])
+                for c in pb.getClosestPoints(body, body, 0.0, physicsClientId=client)
+                if c[8] < -0.002 and ((c[3] in moving) != (c[4] in moving))
+            ]
+            assert not hits, (state, torso, hits)
+
+
 def test_the_panda_renders_and_checks(tmp_path: Path) -> None:
     lines: list[str] = []
     png = tmp_path / "panda.png"
