@@ -504,7 +504,10 @@ class RobotDescription:
         self._within(tree, "torso", tj, (t.lower, t.upper, t.default))
         neck = self.neck
         self._chain(
-            tree, "neck", (neck.pan_joint, neck.tilt_joint), "camera.frame", neck.camera.frame
+            tree,
+            {"neck.pan_joint": neck.pan_joint, "neck.tilt_joint": neck.tilt_joint},
+            "neck.camera.frame",
+            neck.camera.frame,
         )
         for name, values in neck.states.items():
             for jn, v in zip((neck.pan_joint, neck.tilt_joint), values):
@@ -513,7 +516,8 @@ class RobotDescription:
         used[neck.tilt_joint] = "neck.tilt_joint"
         for arm in self.arms:
             where = f"arms[{arm.name!r}]"
-            self._chain(tree, where, arm.joints, "tool_frame", arm.tool_frame)
+            chain = {f"{where}.joints[{i}]": jn for i, jn in enumerate(arm.joints)}
+            self._chain(tree, chain, f"{where}.tool_frame", arm.tool_frame)
             tip = tree.joints[arm.joints[-1]].child
             self._link(tree, f"{where}.hand_link", arm.hand_link)
             if tree.rigid_root(arm.hand_link) != tree.rigid_root(tip):
@@ -547,6 +551,12 @@ class RobotDescription:
                         "arm's finger joints",
                     )
                 self._within(tree, fld, j, (g.open_position, g.closed_position))
+                if 0.0 < j.effort < g.effort:
+                    raise RobotDescriptionError(
+                        r,
+                        f"{where}.gripper.effort",
+                        f"{g.effort} exceeds the effort limit {j.effort} of {jn!r} in the URDF",
+                    )
 
     def _link(self, tree: KinematicTree, fld: str, name: str) -> None:
         if name not in tree.links:
@@ -579,19 +589,15 @@ class RobotDescription:
     def _chain(
         self,
         tree: KinematicTree,
-        where: str,
-        joints: Sequence[str],
-        tip_field: str,
+        joints: Mapping[str, str],
+        tip_fld: str,
         tip: str,
     ) -> None:
-        """``joints`` form a chain, each joint's parent rigidly attached to the previous
-        joint's child, and ``tip`` is rigid with the last joint's child."""
-        fields = (
-            [f"{where}.joints[{i}]" for i in range(len(joints))]
-            if where.startswith("arms")
-            else [f"{where}.pan_joint", f"{where}.tilt_joint"]
-        )
-        infos = [self._joint(tree, f, jn) for f, jn in zip(fields, joints)]
+        """``joints`` (field -> joint name, root to tip) form a chain, each joint's parent
+        rigidly attached to the previous joint's child, and ``tip`` is rigid with the last
+        joint's child."""
+        fields = list(joints)
+        infos = [self._joint(tree, f, jn) for f, jn in joints.items()]
         for k in range(1, len(infos)):
             prev, j = infos[k - 1], infos[k]
             if tree.rigid_root(j.parent) != prev.child:
@@ -602,7 +608,6 @@ class RobotDescription:
                     f"{j.parent!r} is not rigidly attached to {prev.child!r}; list the "
                     "joints in order from the root to the tip, one chain",
                 )
-        tip_fld = f"{where}.{tip_field}"
         self._link(tree, tip_fld, tip)
         if tree.rigid_root(tip) != infos[-1].child:
             raise RobotDescriptionError(

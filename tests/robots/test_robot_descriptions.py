@@ -17,7 +17,14 @@ from executive import (
     RobotDescriptionError,
     knowledge,
 )
-from projection import _costmaps, _urdf, _world_base, kinematic_tree, load_robot
+from projection import (
+    _costmaps,
+    _urdf,
+    _world_base,
+    _world_perception,
+    kinematic_tree,
+    load_robot,
+)
 from robots import pr2
 
 PR2 = pr2.DESCRIPTION
@@ -47,6 +54,10 @@ def test_pr2_description_agrees_with_knowledge_and_projection() -> None:
         assert arm.reach.in_reach_distance == _costmaps.IN_REACH_DISTANCE
         assert arm.reach.minimal_distance == _costmaps.REACH_MINIMAL_DISTANCE
     assert PR2.torso.default == _world_base.DEFAULT_TORSO
+    camera = PR2.neck.camera
+    assert camera.vertical_fov == pytest.approx(_world_perception._CAMERA_FOV_Y)
+    aspect = math.tan(camera.horizontal_fov / 2) / math.tan(camera.vertical_fov / 2)
+    assert aspect == pytest.approx(_world_perception._CAMERA_ASPECT)
     tree = KinematicTree.from_urdf(PR2.urdf())
     torso = tree.joints[PR2.torso.joint]
     assert (PR2.torso.lower, PR2.torso.upper) == (torso.lower, torso.upper)
@@ -142,6 +153,9 @@ def test_values_outside_the_urdf_limits_are_errors() -> None:
     assert e.field == "arms['left'].states['carry']" and "outside the limits" in str(e)
     e = _error(dataclasses.replace(PR2, torso=dataclasses.replace(PR2.torso, upper=0.5)))
     assert e.field == "torso"
+    gripper = dataclasses.replace(left.gripper, effort=150.0)
+    e = _error(_arm(PR2, "left", gripper=gripper))
+    assert e.field == "arms['left'].gripper.effort" and "effort limit 100" in str(e)
 
 
 def test_records_check_what_needs_no_urdf() -> None:
