@@ -194,3 +194,17 @@ def test_load_robot_puts_the_robot_in_its_initial_state(client: int) -> None:
     assert pos == pytest.approx((1.0, -0.5, 0.0), abs=1e-9)
     assert pb.getEulerFromQuaternion(orn)[2] == pytest.approx(math.pi / 2)
     assert isinstance(PR2.arm("left"), ArmDescription)
+
+
+def test_a_document_that_is_not_one_urdf_tree_is_refused() -> None:
+    with pytest.raises(ValueError, match="not a URDF document"):
+        KinematicTree.from_urdf("<sdf/>")
+    two_roots = '<robot name="r"><link name="a"/><link name="b"/></robot>'
+    with pytest.raises(ValueError, match="exactly one root link"):
+        KinematicTree.from_urdf(two_roots)
+    orphan = (
+        '<robot name="r"><link name="a"/><joint name="j" type="fixed">'
+        '<parent link="a"/><child link="missing"/></joint></robot>'
+    )
+    with pytest.raises(ValueError, match="unknown link 'missing'"):
+        KinematicTree.from_urdf(orphan)
