@@ -167,12 +167,19 @@ def _add_reference(subparsers: _Subparsers) -> None:
     add_parser(subparsers)
 
 
+def _add_robot(subparsers: _Subparsers) -> None:
+    from aiocram.robot_check import add_parser
+
+    add_parser(subparsers)
+
+
 _SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (
     _add_demo,
     _add_show,
     _add_bench,
     _add_campaign,
     _add_reference,
+    _add_robot,
 )
 """Registrars of the subcommands, in help order."""
 

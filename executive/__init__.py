@@ -32,6 +32,20 @@ from ._pose import Pose, Transform, yaw_quaternion
 from ._process_module import PMStatus, ProcessModule, pm_execute
 from ._queries import action_of, newest_effective, performed, previous_performed
 from ._resources import Resource, ResourceKind
+from ._robot import (
+    ARM_NAMES,
+    REQUIRED_ARM_STATES,
+    ArmDescription,
+    CameraDescription,
+    GripperDescription,
+    JointInfo,
+    KinematicTree,
+    NeckDescription,
+    Reach,
+    RobotDescription,
+    RobotDescriptionError,
+    TorsoDescription,
+)
 from ._ruledoc import Key, Retry, RuleDoc
 from ._rules import (
     RuleSet,
@@ -74,6 +88,18 @@ del _location, _motions
 
 __all__ = [
     "AABB",
+    "ARM_NAMES",
+    "REQUIRED_ARM_STATES",
+    "ArmDescription",
+    "CameraDescription",
+    "GripperDescription",
+    "JointInfo",
+    "KinematicTree",
+    "NeckDescription",
+    "Reach",
+    "RobotDescription",
+    "RobotDescriptionError",
+    "TorsoDescription",
     "BlockingProcessModule",
     "CancelRequest",
     "ActionDesignator",

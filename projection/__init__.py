@@ -42,6 +42,9 @@ _EXPORTS = MappingProxyType(
         "with_real_robot": "projection._real_environment",
         "render": "projection.render",
         "SpawnOverlap": "projection._world_base",
+        "RobotBody": "projection._robot_body",
+        "kinematic_tree": "projection._robot_body",
+        "load_robot": "projection._robot_body",
     }
 )
 
@@ -50,8 +53,11 @@ __all__ = [
     "ProjectedWorldModel",
     "ProjectionImagination",
     "RealWorldModel",
+    "RobotBody",
     "SpawnOverlap",
     "World",
+    "kinematic_tree",
+    "load_robot",
     "make_world_pair",
     "real_robot_clock",
     "render",
@@ -69,6 +75,7 @@ if TYPE_CHECKING:
     from projection._real_environment import with_real_robot
     from projection._real_faults import FaultProfile
     from projection._real_world_model import RealWorldModel
+    from projection._robot_body import RobotBody, kinematic_tree, load_robot
     from projection._scene import make_world_pair
     from projection._world import World
     from projection._world_base import SpawnOverlap

@@ -1,0 +1,124 @@
+"""A mobile Franka Panda: pybullet_data's ``franka_panda/panda.urdf`` (the arm, its hand and
+its parallel gripper, with the shipped meshes; Apache-2.0, installed with pybullet) mounted
+on a holonomic base with a torso lift and a pan-tilt camera mast, as a
+:class:`executive.RobotDescription`.
+
+:func:`urdf_text` generates the combined URDF: the shipped file's links and joints
+unchanged (mesh paths made absolute, so the file loads from anywhere), mounted by
+``panda_link0`` on the base, torso lift (0..0.40 m) and pan-tilt camera mast of
+:mod:`robots.mobile_base`.
+
+Collision shapes: the shipped collision meshes are single-group OBJs, each of which PyBullet
+turns into one convex hull; the added parts are boxes.
+
+The generated file is written once per content into :func:`robots._urdf_tools.cache_dir`
+when the robot is loaded (``DESCRIPTION.urdf()``), never committed.
+
+Deliberate difference from CRAM: CRAM has no mobile Panda (PyCRAM's Panda is a fixed arm
+with MuJoCo Menagerie names); this one keeps pybullet_data's ``panda_*`` names and its tool
+frame ``panda_grasptarget`` (0.105 m ahead of the hand, between the finger pads).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from executive import (
+    ArmDescription,
+    CameraDescription,
+    GripperDescription,
+    NeckDescription,
+    Reach,
+    RobotDescription,
+    TorsoDescription,
+)
+
+from ._urdf_tools import write_cached
+from .mobile_base import mount_arm
+
+__all__ = [
+    "ARM_JOINTS",
+    "DESCRIPTION",
+    "STANDARD_TO_TOOL",
+    "shipped_urdf",
+    "urdf_path",
+    "urdf_text",
+]
+
+#: The Panda's 7 arm joints, root to tip (pybullet_data's names).
+ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+#: The hand approaches along its z axis and its fingers move along its y axis: the standard
+#: gripper (z approach, x finger to finger) is the hand frame turned by -90 degrees about z.
+STANDARD_TO_TOOL = ((0.0, 1.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def shipped_urdf() -> Path:
+    """pybullet_data's Panda URDF (its meshes next to it); not installed -> an error
+    naming what to install."""
+    try:
+        import pybullet_data
+    except ImportError as e:  # pragma: no cover - pybullet is a dependency
+        raise FileNotFoundError(
+            "the Panda's URDF ships with pybullet (pybullet_data): pip install pybullet"
+        ) from e
+    path = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
+    if not path.is_file():
+        raise FileNotFoundError(f"pybullet_data has no franka_panda/panda.urdf at {path}")
+    return path
+
+
+def urdf_text() -> str:
+    """The mobile Panda's URDF (see the module docstring), mesh paths absolute."""
+    return mount_arm("panda", shipped_urdf(), "panda_link0")
+
+
+def urdf_path() -> Path:
+    """Generate the URDF (once per content) and return its path."""
+    return write_cached(urdf_text(), "panda")
+
+
+DESCRIPTION = RobotDescription(
+    name="panda",
+    urdf=urdf_path,
+    base_frame="base_footprint",
+    base_link="base_link",
+    arms=(
+        ArmDescription(
+            name="left",  # CRAM's name for a one-armed robot's arm
+            joints=ARM_JOINTS,
+            tool_frame="panda_grasptarget",
+            hand_link="panda_hand",
+            standard_to_tool=STANDARD_TO_TOOL,
+            gripper=GripperDescription(
+                joints=("panda_finger_joint1", "panda_finger_joint2"),
+                max_opening=0.08,  # 0.04 m per finger
+                open_position=0.04,
+                closed_position=0.0,
+                effort=20.0,  # the URDF's finger effort limit (N)
+            ),
+            # pybullet_data's Panda reaches 0.95 m from its joint1 axis (sampled); scaled
+            # like the PR2-like robot's 0.7 m of its ~0.95 m, from a mount 0.12 m ahead
+            reach=Reach(in_reach_distance=0.8, minimal_distance=0.2),
+            states={
+                # folded over the base, the hand down in front of the torso (both
+                # states: the tool over the base, no part of the arm in the base, torso
+                # or mast; tested)
+                "park": (0.0, -1.7, 0.0, -3.0, 0.0, 1.3, 0.785),
+                # a held object over the front of the base, the hand pointing down
+                "carry": (0.0, -1.4, 0.0, -2.9, 0.0, 1.5, 0.785),
+            },
+        ),
+    ),
+    torso=TorsoDescription(joint="torso_lift_joint", lower=0.0, upper=0.40, default=0.20),
+    neck=NeckDescription(
+        pan_joint="head_pan_joint",
+        tilt_joint="head_tilt_joint",
+        camera=CameraDescription(
+            frame="camera_optical_frame",
+            vertical_fov=math.radians(50.0),
+            horizontal_fov=2.0 * math.atan(320.0 / 200.0 * math.tan(math.radians(25.0))),
+        ),
+        states={"forward": (0.0, 0.0)},
+    ),
+)
