@@ -101,7 +101,7 @@ def test_camera_showing_without_objects_is_the_overview(world: World) -> None:
 
 
 def test_visible_pixels_rejects_bad_sizes(world: World) -> None:
-    with pytest.raises(ValueError, match="width must be in 1..4096"):
+    with pytest.raises(ValueError, match=r"width must be in 1\.\.4096"):
         render.visible_pixels(world, None, ["cup-1"], width=0)
     with pytest.raises(TypeError, match="height must be an int"):
         render.camera_showing(world, height=2.5)  # type: ignore[arg-type]
