@@ -47,7 +47,7 @@ from executive import (
 )
 from executive.events import RobotStateChanged
 
-from ._common import CountedRetries, ignoring, retry_ledger
+from ._common import CountedRetries, ignoring, retry_ledger, tally
 from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
@@ -375,11 +375,13 @@ async def _position_arms(held: Mapping[str, str]) -> None:
 
 
 async def _ignoring_logged(what: str, body: Callable[[], Awaitable[object]]) -> None:
-    """Run ``body()``; a plan failure or designator error is logged (the cleanup goes on:
-    a failure it ignores on purpose is never silent)."""
+    """Run ``body()``; a plan failure or designator error is logged and counted (as
+    ``cleanup-step-failed`` in the running :func:`plans.retry_ledger`), and the cleanup
+    goes on: a failure it ignores on purpose is never silent."""
 
     def logged(failure: BaseException) -> None:
         log.warning("final cleanup: could not %s: %s", what, failure)
+        tally("cleanup-step-failed")
         cpl.return_(None)
 
     await cpl.with_failure_handling(body, [((cpl.PlanFailure, DesignatorError), logged)])
