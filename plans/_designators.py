@@ -11,6 +11,7 @@ from typing import Any
 from executive import (
     Designator,
     DesignatorError,
+    DesignatorInputError,
     LocationDesignator,
     ObjectDesignator,
     Pose,
@@ -53,15 +54,20 @@ def _check_places(d: Designator, *keys: str) -> None:
         # handle link, which a world may know without knowing the container's body link
         for relation in ("on",):
             place = value.get(relation)
-            if not isinstance(place, ObjectDesignator):
-                continue
-            link = place.get("urdf-name")
-            if not isinstance(link, str):
+            if isinstance(place, str):  # (on "name"): a link or an object of the world
+                link = place
+                if link in getattr(world, "objects", ()):
+                    continue
+            elif isinstance(place, ObjectDesignator):
+                link = place.get("urdf-name")
+                if not isinstance(link, str):
+                    continue
+            else:
                 continue
             try:
                 world.link_pose(link)
             except LookupError as exc:
-                raise DesignatorError(
+                raise DesignatorInputError(
                     f"{d.short()}: its {key} is ({relation} ...) {link!r}, which this world "
                     f"does not have ({exc})",
                     d,

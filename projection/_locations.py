@@ -40,7 +40,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from executive import DesignatorError, RuleSet, static_rules
+from executive import DesignatorError, DesignatorInputError, RuleSet, static_rules
 from executive._designator import Designator
 from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable
@@ -316,7 +316,9 @@ class LocationCostmaps:
         return plan
 
     def _error(self, d: Designator, message: str) -> DesignatorError:
-        return DesignatorError(f"{_describe(d)}: {message}", d)
+        # every caller reports a malformed designator (a bad key, name or value), which no
+        # other solution cures: not translated or retried by plans
+        return DesignatorInputError(f"{_describe(d)}: {message}", d)
 
     def _check_modifiers(self, d: Designator) -> None:
         mods = sorted({k for k, _ in d.properties if k in _MODIFIERS} - {"arm"})

@@ -114,3 +114,28 @@ def test_importing_plans_keeps_unknown_location_keys_an_error() -> None:
     del plans
     with pytest.raises(DesignatorError, match=r"unknown key 'on-top-of' for a location"):
         a.location(on_top_of=an.object(type="table")).reference()
+
+
+def test_a_misspelt_surface_name_surfaces_with_its_hint_before_the_robot_moves(mrun, world):
+    """(on "nosuch_surface") is bad input: the "did you mean" DesignatorError reaches the
+    caller, neither retried nor translated into object-nowhere-to-be-found."""
+    from executive import ObjectNowhereToBeFound
+    from plans.search import search_for_object
+
+    before = _state(world)
+    searching = an.action(
+        type="searching", object=an.object(type="bowl"), location=a.location(on="nosuch_surface")
+    )
+    with pytest.raises(DesignatorError, match="did you mean sink_area_surface") as caught:
+        _run(mrun, world, searching)
+    assert not isinstance(caught.value, ObjectNowhereToBeFound)
+    assert _state(world) == before
+
+    # the plan called directly (no rule checks its input first): the location's own error
+    async def direct():
+        async with projection.with_projected_robot(world):
+            await search_for_object(an.object(type="bowl"), a.location(on="nosuch_surface"))
+
+    with pytest.raises(DesignatorError, match="did you mean sink_area_surface"):
+        mrun(direct)
+    assert _state(world) == before
