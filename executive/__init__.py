@@ -43,6 +43,7 @@ from ._rules import (
 from ._solutions import ActionGrounding, MotionCommand, ObjectData
 from ._world import (
     AABB,
+    ArmJointLimits,
     ArmSweepProbe,
     ContainerOpeningProbe,
     ProbeResult,
@@ -90,6 +91,7 @@ __all__ = [
     "Imagination",
     "ProbeResult",
     "ProjectionWorld",
+    "ArmJointLimits",
     "ArmSweepProbe",
     "ContainerOpeningProbe",
     "SceneSetup",

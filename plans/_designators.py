@@ -6,6 +6,8 @@ the rule (before anything moves).
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Mapping
 from typing import Any
 
 from executive import (
@@ -16,6 +18,7 @@ from executive import (
     ObjectDesignator,
     Pose,
     current_environment,
+    knowledge,
 )
 
 from ._common import as_location
@@ -76,7 +79,36 @@ def _check_places(d: Designator, *keys: str) -> None:
 
 
 def _object(d: Designator) -> ObjectDesignator:
+    """``d``'s object designator. Its type, if given, must be one the robot knows (object
+    knowledge, or the type of an object of the environment's world): a misspelt type
+    (``bwol``) is a :class:`executive.DesignatorInputError` naming the known types, raised
+    by the rule before anything moves (it used to drive, turn and look ten times, then
+    fail as object-nowhere-to-be-found)."""
     value = d.get("object")
     if not isinstance(value, ObjectDesignator):
         raise DesignatorError(f"{d.short()} needs an object designator", d)
+    object_type = value.current().get("type")
+    if object_type is not None:
+        known = _known_object_types()
+        if object_type not in known:
+            close = difflib.get_close_matches(str(object_type), known, n=3, cutoff=0.5)
+            hint = f"did you mean {', '.join(close)}? " if close else ""
+            raise DesignatorInputError(
+                f"{d.short()}: unknown object type {object_type!r}; {hint}"
+                f"known types: {', '.join(known)}",
+                d,
+            )
     return value
+
+
+def _known_object_types() -> list[str]:
+    """Object knowledge's types and the types of the world's objects, sorted."""
+    types = set(knowledge.known_types())
+    world = getattr(current_environment(), "world", None)
+    objects = getattr(world, "objects", None)
+    if isinstance(objects, Mapping):
+        for entry in objects.values():
+            entry_type = entry if isinstance(entry, str) else getattr(entry, "type", None)
+            if isinstance(entry_type, str):
+                types.add(entry_type)
+    return sorted(types)

@@ -74,6 +74,9 @@ class RealWorldModel:
     def container_state(self, link_or_joint: str) -> tuple[float, float, float]:
         return self.belief.container_state(link_or_joint)
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        return self.belief.arm_joint_limits(arm)
+
     def gripper_opening(self, arm: str) -> float | None:
         """The finger opening of ``arm``: the belief robot mirrors the true joint states
         (as a real robot's belief has them from its joint-state topic)."""

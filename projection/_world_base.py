@@ -355,6 +355,14 @@ class WorldBase:
         expected)."""
         return joint in self._robot_joints or joint in self._kitchen_joints
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        """``(joint, lower, upper)`` of the 7 arm joints (``knowledge.ARM_JOINTS`` order),
+        from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        return tuple(
+            (f"{ARM_PREFIX[self._arm(arm)]}_{name}", *self._limits[i])
+            for name, i in zip(knowledge.ARM_JOINTS, self._arm_joints[self._arm(arm)])
+        )
+
     def arm_joints(self, arm: str) -> tuple[float, ...]:
         """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
         self._check()

@@ -134,6 +134,10 @@ class ProjectedWorldModel:
         """``(position, lower, upper)`` of a container joint (see ``World``)."""
         return self.world.container_state(link_or_joint)
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        """``(joint, lower, upper)`` of ``arm``'s 7 joints (see ``World``)."""
+        return self.world.arm_joint_limits(arm)
+
     def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
         finger joints; a real robot's belief has them from its joint states)."""

@@ -139,3 +139,42 @@ def test_a_misspelt_surface_name_surfaces_with_its_hint_before_the_robot_moves(m
     with pytest.raises(DesignatorError, match="did you mean sink_area_surface"):
         mrun(direct)
     assert _state(world) == before
+
+
+@pytest.mark.parametrize("action_type", ["transporting", "searching", "fetching"])
+def test_an_unknown_object_type_names_the_known_types_before_the_robot_moves(
+    mrun, world, action_type
+):
+    before = _state(world)
+    keys = {} if action_type == "fetching" else {"location": fetch_location("bowl")}
+    if action_type == "transporting":
+        keys["target"] = place_location("bowl")
+    action = an.action(type=action_type, object=an.object(type="bwol"), **keys)
+    with pytest.raises(
+        DesignatorError, match=r"unknown object type 'bwol'; did you mean bowl\?.*known types"
+    ):
+        _run(mrun, world, action)
+    assert _state(world) == before
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ((5.0,) * 7, r"outside its limits \["),
+        ((0.0, 0.0, 0.0), r"7 finite joint values \(shoulder_pan_joint"),
+        ((0.0,) * 8, "7 finite joint values"),
+    ],
+)
+def test_bad_arm_joint_values_are_refused_before_the_arm_moves(mrun, world, values, message):
+    """position-arms ignores manipulation failures, so bad values used to return None
+    and move nothing without a word."""
+    before = _state(world)
+    action = an.action(type="positioning-arm", left_configuration=values)
+    with pytest.raises(DesignatorError, match=message) as caught:
+        _run(mrun, world, action)
+    if "limits" in message:
+        lo, hi = world.arm_joint_limits("left")[0][1:]
+        assert f"l_shoulder_pan_joint = 5.0 is outside its limits [{lo:.4f}, {hi:.4f}]" in str(
+            caught.value
+        )
+    assert _state(world) == before
