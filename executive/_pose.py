@@ -13,6 +13,7 @@ construction, naming the bad value.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any, cast
@@ -189,7 +190,10 @@ class Pose:
         position: Sequence[float] = (0.0, 0.0, 0.0),
         orientation_xyzw: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
         frame: str = "map",
+        **unknown: Any,
     ) -> None:
+        if unknown:
+            _unknown_keywords("Pose", unknown)
         if not isinstance(frame, str) or not frame:
             raise ValueError(f"a pose needs a frame name, got {frame!r}")
         object.__setattr__(self, "position", _vector(position, 3, "position"))
@@ -212,7 +216,10 @@ class Pose:
         position: Sequence[float] | None = None,
         orientation_xyzw: Sequence[float] | None = None,
         frame: str | None = None,
+        **unknown: Any,
     ) -> Pose:
+        if unknown:
+            _unknown_keywords("Pose.copy", unknown)
         return Pose(
             self.position if position is None else position,
             self.orientation if orientation_xyzw is None else orientation_xyzw,
@@ -270,6 +277,27 @@ class Pose:
         )
 
     def __repr__(self) -> str:
-        p = " ".join(f"{v:.3f}" for v in self.position)
+        p = " ".join(map(_shown, self.position))
         q = " ".join(f"{v:.3f}" for v in self.orientation)
         return f"<Pose {self.frame} ({p}) ({q})>"
+
+
+def _shown(v: float) -> str:
+    """A coordinate for display: millimetres, or 6 significant digits when huge (a
+    1e300 m typo must not print 300 digits)."""
+    return f"{v:.3f}" if abs(v) < 1e9 else f"{v:.6g}"
+
+
+_POSE_KEYWORDS = ("position", "orientation_xyzw", "frame")
+
+
+def _unknown_keywords(where: str, unknown: dict[str, Any]) -> None:
+    """``TypeError`` for keywords a pose does not take, suggesting the one meant (a pose's
+    orientation is ``orientation_xyzw``: the name says the quaternion's order)."""
+    name = next(iter(unknown))
+    close = difflib.get_close_matches(name, _POSE_KEYWORDS, n=1, cutoff=0.5)
+    hint = f"; did you mean {close[0]}?" if close else ""
+    raise TypeError(
+        f"{where}() got an unexpected keyword argument {name!r}{hint} (a pose takes "
+        f"{', '.join(_POSE_KEYWORDS)}; the orientation is a quaternion (x, y, z, w))"
+    )

@@ -78,6 +78,19 @@ def _check_places(d: Designator, *keys: str) -> None:
         stack.extend((key, v) for k, v in value.properties if isinstance(v, LocationDesignator))
 
 
+def _given_arm(d: Designator, default: str | None = None) -> str | None:
+    """``d``'s ``arm`` (``default`` when absent), checked by the action's own rule: an
+    unknown arm is a :class:`executive.DesignatorInputError` naming ``d`` and the known
+    arms (it used to surface from an inner ``setting-gripper`` action, after the robot had
+    driven and reached)."""
+    arm = d.get("arm", default)
+    if arm is not None and arm not in knowledge.ARMS:
+        raise DesignatorInputError(
+            f"{d.short()}: unknown arm {arm!r}; known arms: {', '.join(knowledge.ARMS)}", d
+        )
+    return None if arm is None else str(arm)
+
+
 def _object(d: Designator) -> ObjectDesignator:
     """``d``'s object designator. Its type, if given, must be one the robot knows (object
     knowledge, or the type of an object of the environment's world): a misspelt type

@@ -398,6 +398,14 @@ async def grip(gripper: Any, effort: float | None = None) -> None:
 @rule("action", "gripping", keys=("gripper", "effort"))
 def _gripping(d: Designator) -> Iterator[Any]:
     effort = d.get("effort")
+    # checked here, where the action is named (the motion checks it again)
+    if effort is not None and (
+        isinstance(effort, bool)
+        or not isinstance(effort, (int, float))
+        or not math.isfinite(effort)
+        or effort < 0
+    ):
+        raise DesignatorInputError(f"{d.short()}: effort must be a number >= 0, got {effort!r}", d)
     yield grip, {"gripper": _gripper(d), "effort": None if effort is None else float(effort)}
 
 

@@ -31,7 +31,7 @@ from executive import (
     rule,
 )
 
-from ._designators import ROBOT, _check_places, _location, _object
+from ._designators import ROBOT, _check_places, _given_arm, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
 from .fetch import ObjectUnreachableOnFloor, search_floor
@@ -172,7 +172,7 @@ def _transporting(d: Designator) -> Iterator[Any]:
             "object_designator": _object(d),
             "location": _location(d, "location"),
             "target": _location(d, "target"),
-            "arm": d.get("arm"),
+            "arm": _given_arm(d),
             "projection_reasoning": bool(d.get("projection-reasoning", True)),
             "projection_runs": int(d.get("projection-runs", 3)),
             "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),

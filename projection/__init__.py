@@ -42,10 +42,12 @@ _EXPORTS = MappingProxyType(
         "with_real_robot": "projection._real_environment",
         "render": "projection.render",
         "SpawnOverlap": "projection._world_base",
+        "BadObjectPose": "projection._world_base",
     }
 )
 
 __all__ = [
+    "BadObjectPose",
     "FaultProfile",
     "ProjectedWorldModel",
     "ProjectionImagination",
@@ -71,7 +73,7 @@ if TYPE_CHECKING:
     from projection._real_world_model import RealWorldModel
     from projection._scene import make_world_pair
     from projection._world import World
-    from projection._world_base import SpawnOverlap
+    from projection._world_base import BadObjectPose, SpawnOverlap
     from projection._world_model import ProjectedWorldModel
 
 

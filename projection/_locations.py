@@ -273,7 +273,7 @@ class LocationCostmaps:
                     name += "_"
                 world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
-                world.set_object_pose(name, p)
+                world.set_object_pose(name, p, allow_overlap=True)
             hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]
         finally:
             world.restore(snap)

@@ -176,7 +176,7 @@ class RealWorldModel:
         belief = self.belief_world
         if name in belief.objects:
             if belief.attachments.get(name) not in self._links:  # not in the robot's hand
-                belief.set_object_pose(name, pose)
+                belief.set_object_pose(name, pose, allow_overlap=True)
         elif isinstance(otype, str):
             belief.spawn_object(name, otype, pose, allow_overlap=True)  # noisy percepts
 

@@ -178,3 +178,20 @@ def test_bad_arm_joint_values_are_refused_before_the_arm_moves(mrun, world, valu
             caught.value
         )
     assert _state(world) == before
+
+
+@pytest.mark.parametrize("action_type", ["transporting", "fetching", "picking-up"])
+def test_an_unknown_arm_is_reported_at_the_action_given_it(mrun, world, action_type):
+    """Not by an inner setting-gripper action, after the robot has driven and reached."""
+    before = _state(world)
+    keys = {"arm": "middle", "object": an.object(type="bowl")}
+    if action_type == "transporting":
+        keys.update(location=fetch_location("bowl"), target=place_location("bowl"))
+    if action_type == "picking-up":
+        keys["object"] = an.object(type="bowl", name="bowl-1", pose=Pose((1.4, 0.8, 0.87)))
+    with pytest.raises(
+        DesignatorError,
+        match=rf"action \(type {action_type}\).*unknown arm 'middle'; known arms: right, left",
+    ):
+        _run(mrun, world, an.action(type=action_type, **keys))
+    assert _state(world) == before
