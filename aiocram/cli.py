@@ -51,10 +51,8 @@ _MAX_PROBLEM = 300
 
 
 def _cannot_read(log: str, problem: str) -> int:
-    """Print the one-line "cannot read" error of ``aiocram show``; return exit status 2."""
-    prefix = f"{log}:"
-    if problem.startswith(prefix):  # "LOG:7: ..." -> "line 7: ..."
-        problem = "line " + problem[len(prefix) :]
+    """Print the one-line "cannot read" error of ``aiocram show`` (``problem`` names the
+    line as ``LOG:7:``, as editors and grep do); return exit status 2."""
     problem = " ".join(problem.split())
     if len(problem) > _MAX_PROBLEM:
         problem = problem[: _MAX_PROBLEM - 3] + "..."

@@ -151,10 +151,10 @@ def test_messages_say_what_is_wrong(tmp_path: Path, capsys: pytest.CaptureFixtur
     lines, events = _good(tmp_path)
     expected = {
         "png image": "not a text file: byte 0 (0x89) is not UTF-8 text",
-        "path a number": "line 2: 'path' must be a non-empty list of task names, got 5",
-        "end time NaN": "line 1: 'end_time' must be null or a finite number, got nan",
+        "path a number": ":2: 'path' must be a non-empty list of task names, got 5",
+        "end time NaN": ":1: 'end_time' must be null or a finite number, got nan",
         "cycle of parent links": "a cycle of parent links",
-        "json nested 100000 deep": "line 1: JSON nested too deeply to be an event",
+        "json nested 100000 deep": ":1: JSON nested too deeply to be an event",
     }
     for kind, message in expected.items():
         path = tmp_path / "damaged.jsonl"
