@@ -23,7 +23,6 @@ import cpl
 from executive import (
     Designator,
     DesignatorError,
-    DesignatorInputError,
     EnvironmentManipulationImpossible,
     EnvironmentUnreachable,
     GripperLowLevelFailure,
@@ -72,8 +71,8 @@ async def manipulate_environment(
         link = handle_link(container)
         try:
             handle = current_environment().world.link_pose(link, "map")
-        except LookupError as error:  # a misspelt container: bad input, not "impossible"
-            raise DesignatorInputError(f"{container.short()}: {error}", container) from error
+        except LookupError as error:
+            raise DesignatorError(f"{container.short()}: {error}", container) from error
         base_poses = SolutionCursor(
             a.location(reachable_for=ROBOT, location=a.location(pose=handle), arm=arm)
         )

@@ -195,15 +195,3 @@ def test_an_unknown_arm_is_reported_at_the_action_given_it(mrun, world, action_t
     ):
         _run(mrun, world, an.action(type=action_type, **keys))
     assert _state(world) == before
-
-
-def test_a_misspelt_container_surfaces_with_its_hint_before_the_robot_moves(mrun, world):
-    from executive import EnvironmentManipulationImpossible
-
-    drawer = an.object(type="drawer", urdf_name="sink_area_left_uper_drawer_main")
-    before = _state(world)
-    accessing = an.action(type="accessing", location=a.location(in_=drawer))
-    with pytest.raises(DesignatorError, match="did you mean sink_area_left_upper_drawer") as caught:
-        _run(mrun, world, accessing)
-    assert not isinstance(caught.value, EnvironmentManipulationImpossible)
-    assert _state(world) == before
