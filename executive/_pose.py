@@ -16,7 +16,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, NoReturn, cast
 
 import numpy as np
 
@@ -185,21 +185,32 @@ class Pose:
     frame: str
     _rotation: Rotation | None
 
-    def __init__(
-        self,
-        position: Sequence[float] = (0.0, 0.0, 0.0),
-        orientation_xyzw: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
-        frame: str = "map",
-        **unknown: Any,
-    ) -> None:
-        if unknown:
-            _unknown_keywords("Pose", unknown)
-        if not isinstance(frame, str) or not frame:
-            raise ValueError(f"a pose needs a frame name, got {frame!r}")
-        object.__setattr__(self, "position", _vector(position, 3, "position"))
-        object.__setattr__(self, "orientation", _quaternion(orientation_xyzw, "orientation"))
-        object.__setattr__(self, "frame", frame)
-        object.__setattr__(self, "_rotation", None)
+    if TYPE_CHECKING:  # the signature calls are checked against
+
+        def __init__(
+            self,
+            position: Sequence[float] = (0.0, 0.0, 0.0),
+            orientation_xyzw: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+            frame: str = "map",
+        ) -> None: ...
+
+    else:  # the same at run time, where a wrong keyword gets a hint (at no cost)
+
+        def __init__(
+            self,
+            position=(0.0, 0.0, 0.0),
+            orientation_xyzw=(0.0, 0.0, 0.0, 1.0),
+            frame="map",
+            **unknown,
+        ):
+            if unknown:
+                _unknown_keywords("Pose", list(unknown))
+            if not isinstance(frame, str) or not frame:
+                raise ValueError(f"a pose needs a frame name, got {frame!r}")
+            object.__setattr__(self, "position", _vector(position, 3, "position"))
+            object.__setattr__(self, "orientation", _quaternion(orientation_xyzw, "orientation"))
+            object.__setattr__(self, "frame", frame)
+            object.__setattr__(self, "_rotation", None)
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError("Pose is immutable; use copy(...) or build a new one")
@@ -216,10 +227,7 @@ class Pose:
         position: Sequence[float] | None = None,
         orientation_xyzw: Sequence[float] | None = None,
         frame: str | None = None,
-        **unknown: Any,
     ) -> Pose:
-        if unknown:
-            _unknown_keywords("Pose.copy", unknown)
         return Pose(
             self.position if position is None else position,
             self.orientation if orientation_xyzw is None else orientation_xyzw,
@@ -291,10 +299,10 @@ def _shown(v: float) -> str:
 _POSE_KEYWORDS = ("position", "orientation_xyzw", "frame")
 
 
-def _unknown_keywords(where: str, unknown: dict[str, Any]) -> None:
+def _unknown_keywords(where: str, unknown: Sequence[str]) -> NoReturn:
     """``TypeError`` for keywords a pose does not take, suggesting the one meant (a pose's
     orientation is ``orientation_xyzw``: the name says the quaternion's order)."""
-    name = next(iter(unknown))
+    name = unknown[0]
     close = difflib.get_close_matches(name, _POSE_KEYWORDS, n=1, cutoff=0.5)
     hint = f"; did you mean {close[0]}?" if close else ""
     raise TypeError(

@@ -72,9 +72,9 @@ def test_pose_transform_round_trip(x: float, y: float, z: float, yaw: float) -> 
 
 def test_a_misnamed_keyword_suggests_the_right_one() -> None:
     with pytest.raises(TypeError, match=r"'orientation'; did you mean orientation_xyzw\?"):
-        Pose((0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0))
+        Pose((0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0))  # type: ignore[call-arg]
     with pytest.raises(TypeError, match=r"'pos'; did you mean position\?"):
-        Pose().copy(pos=(1.0, 0.0, 0.0))
+        Pose(pos=(1.0, 0.0, 0.0))  # type: ignore[call-arg]
 
 
 def test_a_huge_position_is_shown_briefly() -> None:
