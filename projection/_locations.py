@@ -316,8 +316,8 @@ class LocationCostmaps:
         return plan
 
     def _error(self, d: Designator, message: str) -> DesignatorError:
-        # every caller reports a malformed designator (a bad key, name or value), which no
-        # other solution cures: not translated or retried by plans
+        # callers report a malformed designator (a bad key, name or value), which no other
+        # solution cures: not translated or retried by plans
         return DesignatorInputError(f"{_describe(d)}: {message}", d)
 
     def _check_modifiers(self, d: Designator) -> None:
@@ -527,8 +527,11 @@ class LocationCostmaps:
                 return world.object_pose(items[0]).position, items[0], otype
         if isinstance(name, str):
             raise self._unknown(d, key, name)
-        raise self._error(
-            d, f"({key} {obj.short()}): no item of type {otype!r} in the world and no pose"
+        # the world's state, not a malformed designator: plans may translate it
+        raise DesignatorError(
+            f"{_describe(d)}: ({key} {obj.short()}): no item of type {otype!r} in the world "
+            "and no pose",
+            d,
         )
 
     def _target(self, d: Designator, key: str) -> tuple[tuple[float, float, float], str | None]:
