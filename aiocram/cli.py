@@ -39,10 +39,41 @@ def _version() -> str:
 
 
 def _positive(text: str) -> int:
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
+
+
+#: The longest problem description ``aiocram show`` prints (a damaged log may hold a
+#: megabyte on one line; the message stays one readable line).
+_MAX_PROBLEM = 300
+
+
+def _cannot_read(log: str, problem: str) -> int:
+    """Print the one-line "cannot read" error of ``aiocram show`` (``problem`` names the
+    line as ``LOG:7:``, as editors and grep do); return exit status 2."""
+    problem = " ".join(problem.split())
+    if len(problem) > _MAX_PROBLEM:
+        problem = problem[: _MAX_PROBLEM - 3] + "..."
+    print(f"aiocram show: error: cannot read {log}: {problem}", file=sys.stderr)
+    return 2
+
+
+#: What a damaged log can still make the reader or the renderer raise, however careful the
+#: reader's checks: reported as "cannot read", never as a traceback.
+_DAMAGE = (
+    KeyError,
+    TypeError,
+    AttributeError,
+    IndexError,
+    RecursionError,
+    MemoryError,
+    OverflowError,
+)
 
 
 def _add_show(subparsers: _Subparsers) -> None:
@@ -108,28 +139,42 @@ def _run_show(args: argparse.Namespace) -> int:
     except FileNotFoundError:
         print(f"aiocram show: error: no such file: {args.log}", file=sys.stderr)
         return 2
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        print(f"aiocram show: error: cannot read {args.log}: {exc}", file=sys.stderr)
-        return 2
+    except IsADirectoryError:
+        return _cannot_read(args.log, "it is a folder; give the event log file in it")
+    except PermissionError:
+        return _cannot_read(args.log, "permission denied")
+    except (OSError, ValueError) as exc:
+        return _cannot_read(args.log, str(exc))
+    except _DAMAGE as exc:
+        return _cannot_read(args.log, f"a malformed event ({type(exc).__name__}: {exc})")
     console = Console(highlight=False)
-    if args.collapse:  # the compact tree the demo prints at its end
-        from aiocram._views import final_tree
+    try:  # rendered whole before anything is written: no half tree before an error
+        if args.collapse:  # the compact tree the demo prints at its end
+            from aiocram._views import final_tree
 
-        if args.ascii:
-            sys.stdout.write(_ascii_text(final_tree(tree, ascii=True), console.width))
+            if args.ascii:
+                text = _ascii_text(final_tree(tree, ascii=True), console.width)
+            else:
+                with console.capture() as captured:
+                    console.print(final_tree(tree))
+                text = captured.get()
+        elif args.ascii:
+            text = render_text(
+                tree,
+                ascii=True,
+                width=console.width,
+                max_nodes=args.max_nodes,
+                collapse_finished=args.collapse,
+            )
         else:
-            console.print(final_tree(tree))
-    elif args.ascii:
-        text = render_text(
-            tree,
-            ascii=True,
-            width=console.width,
-            max_nodes=args.max_nodes,
-            collapse_finished=args.collapse,
-        )
-        sys.stdout.write(text)
-    else:
-        console.print(render(tree, max_nodes=args.max_nodes, collapse_finished=args.collapse))
+            with console.capture() as captured:
+                console.print(
+                    render(tree, max_nodes=args.max_nodes, collapse_finished=args.collapse)
+                )
+            text = captured.get()
+    except (ValueError, *_DAMAGE) as exc:
+        return _cannot_read(args.log, f"a malformed event ({type(exc).__name__}: {exc})")
+    sys.stdout.write(text)
     if cut is not None:
         print(
             f"aiocram show: note: {args.log} ends in a line cut mid-write (line {cut}, left "

@@ -20,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+import math
 import os
 import time
 import weakref
@@ -260,9 +261,33 @@ def load_events(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     killed run ends) is left out; :func:`truncated_tail` tells whether there is one. A
     malformed line anywhere else raises ``ValueError`` naming the line.
     """
-    events: list[dict[str, Any]] = []
-    with open(path, encoding="utf-8") as f:
-        lines = f.readlines()
+    return [event for _lineno, event in _load_numbered(path)]
+
+
+def _read_lines(path: str | os.PathLike[str]) -> list[str]:
+    """The lines of a log file; a binary file is a ``ValueError`` saying so (not a codec
+    error), a folder an ``IsADirectoryError``."""
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"not a text file: byte {exc.start} (0x{data[exc.start]:02x}) is not UTF-8 text; "
+            "an event log is JSON lines"
+        ) from None
+    if "\x00" in text:
+        raise ValueError(
+            f"not a text file: it holds a NUL byte (at {text.index(chr(0))}); an event log "
+            "is JSON lines"
+        )
+    return text.splitlines(keepends=True)
+
+
+def _load_numbered(path: str | os.PathLike[str]) -> list[tuple[int, dict[str, Any]]]:
+    """:func:`load_events` with each event's line number."""
+    events: list[tuple[int, dict[str, Any]]] = []
+    lines = _read_lines(path)
     cut = _cut_line(lines)
     for lineno, line in enumerate(lines, 1):
         start = line.find("{")
@@ -277,10 +302,14 @@ def load_events(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
             if start == 0:
                 raise ValueError(f"{where}: not a JSON event line: {exc}") from exc
             continue
+        except RecursionError:
+            raise ValueError(f"{where}: JSON nested too deeply to be an event") from None
+        except ValueError as exc:  # e.g. an integer of more than 4300 digits
+            raise ValueError(f"{where}: not a JSON event line: {exc}") from None
         if not isinstance(event, dict):
             continue
         _check_schema(event, where)
-        events.append(event)
+        events.append((lineno, event))
     return events
 
 
@@ -295,16 +324,71 @@ def _cut_line(lines: list[str]) -> int | None:
         return None
     try:
         json.loads(last[start:])
-    except json.JSONDecodeError:
+    except (json.JSONDecodeError, RecursionError):
         return len(lines)
+    except ValueError:
+        return None  # complete, but not an event: load_events says why
     return None
 
 
 def truncated_tail(path: str | os.PathLike[str]) -> int | None:
     """The line number of a log file's last line if it was cut mid-write (see
     :func:`load_events`, which leaves it out), else ``None``."""
-    with open(path, encoding="utf-8") as f:
-        return _cut_line(f.readlines())
+    return _cut_line(_read_lines(path))
+
+
+def _names(value: Any) -> bool:
+    return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+
+def _finite(value: Any) -> bool:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int too large for a float
+        return False
+
+
+_STATUS_VALUES: frozenset[str] = frozenset(s.value for s in Status)
+
+#: What each field of a tree event must be, if present: (test, what to say).
+_FIELD_CHECKS: dict[str, tuple[Any, str]] = {
+    "parent": (lambda v: v is None or (_names(v) and v), "null or a list of task names"),
+    "moved_from": (lambda v: v is None or (_names(v) and v), "null or a list of task names"),
+    "name": (lambda v: isinstance(v, str), "a string"),
+    "kind": (lambda v: isinstance(v, str), "a string"),
+    "status": (lambda v: v in _STATUS_VALUES, "one of " + ", ".join(s.value for s in Status)),
+    "start_time": (lambda v: v is None or _finite(v), "null or a finite number"),
+    "end_time": (lambda v: v is None or _finite(v), "null or a finite number"),
+    "arguments": (lambda v: v is None or isinstance(v, dict), "null or an object"),
+    "annotations": (lambda v: v is None or isinstance(v, dict), "null or an object"),
+    "failure": (
+        lambda v: (
+            v is None
+            or (
+                isinstance(v, dict)
+                and all(isinstance(v.get(k), str) for k in ("type", "cram_name", "message"))
+                and isinstance(v.get("details") or {}, dict)
+            )
+        ),
+        "null or a failure object (type, cram_name, message: strings; details: an object)",
+    ),
+    "evaporated_by": (lambda v: v is None or _names(v), "null or a list of task names"),
+    "reason": (lambda v: v is None or isinstance(v, str), "null or a string"),
+}
+
+
+def _check_event(ev: Mapping[str, Any], where: str) -> None:
+    """``ValueError`` naming ``where`` and the field when a tree event is malformed."""
+    path = ev.get("path")
+    if not (_names(path) and path):
+        raise ValueError(f"{where}: 'path' must be a non-empty list of task names, got {path!r}")
+    for key, (test, what) in _FIELD_CHECKS.items():
+        if key in ev and not test(ev[key]):
+            raise ValueError(f"{where}: {key!r} must be {what}, got {ev[key]!r}")
+    if ev.get("event") == "run-started" and "status" not in ev:
+        raise ValueError(f"{where}: a run-started event needs a 'status'")
 
 
 _STATE_KEYS = (
@@ -325,14 +409,24 @@ def tree_from_log(
 
     ``source`` is a log file or the events themselves. The tree shows each task as last
     reported, so the log of an interrupted run gives the tree at the interruption.
+
+    A damaged log (a field of the wrong type, a missing path, a time that is not a finite
+    number, a task moved under itself) is a ``ValueError`` naming the line (or event
+    index) and the field, never a ``KeyError``/``TypeError`` from deep inside.
     """
     events: list[Mapping[str, Any]]
+    wheres: list[str]
     if isinstance(source, str | os.PathLike):
-        events = list(load_events(Path(source)))
+        numbered = _load_numbered(Path(source))
+        events = [ev for _n, ev in numbered]
+        wheres = [f"{os.fspath(source)}:{n}" for n, _ev in numbered]
     else:
         events = list(source)
-        for i, ev in enumerate(events):
-            _check_schema(ev, f"event {i}")
+        wheres = [f"event {i}" for i in range(len(events))]
+        for ev, where in zip(events, wheres):
+            if not isinstance(ev, Mapping):
+                raise ValueError(f"{where}: an event is a JSON object, got {type(ev).__name__}")
+            _check_schema(ev, where)
     starts = [i for i, ev in enumerate(events) if ev.get("event") == "run-started"]
     if not starts:
         raise ValueError("the event log holds no run (no 'run-started' event)")
@@ -348,7 +442,7 @@ def tree_from_log(
     records: dict[tuple[str, ...], dict[str, Any]] = {}
     children: dict[tuple[str, ...], list[tuple[str, ...]]] = {}
     root_path: tuple[str, ...] | None = None
-    for ev in events[first:end]:
+    for ev, where in zip(events[first:end], wheres[first:end]):
         kind = ev.get("event")
         if kind not in (
             "run-started",
@@ -358,6 +452,7 @@ def tree_from_log(
             "run-finished",
         ):
             continue
+        _check_event(ev, where)
         path = tuple(ev["path"])
         if kind in ("run-started", "task-started"):
             moved = ev.get("moved_from")
@@ -373,9 +468,10 @@ def tree_from_log(
                 parent = None
             elif parent is None or parent not in records:
                 raise ValueError(
-                    f"event log is inconsistent: task {'/'.join(path)!r} started under "
-                    f"unknown parent {parent!r}"
+                    f"{where}: event log is inconsistent: task {'/'.join(path)!r} started "
+                    f"under unknown parent {parent!r}"
                 )
+
             if path not in records:
                 records[path] = {"path": path, "parent": parent}
                 children[path] = []
@@ -386,7 +482,9 @@ def tree_from_log(
             record["kind"] = ev.get("kind", "task")
             record["arguments"] = ev.get("arguments") or {}
         elif path not in records:
-            raise ValueError(f"event log is inconsistent: {kind} for unknown task {path!r}")
+            raise ValueError(
+                f"{where}: event log is inconsistent: {kind} for unknown task {path!r}"
+            )
         record = records[path]
         for key in _STATE_KEYS:
             if key in ev:
@@ -394,14 +492,29 @@ def tree_from_log(
         if "reason" in ev:
             record["evaporation_reason"] = ev["reason"]
     assert root_path is not None
+    if root_path not in records:
+        raise ValueError("event log is inconsistent: its top-level task was moved away")
 
     # Rebuild bottom-up without recursion: reverse pre-order puts children first.
     order: list[tuple[str, ...]] = []
     stack = [root_path]
+    seen: set[tuple[str, ...]] = set()
     while stack:
         p = stack.pop()
+        if p in seen:  # a task moved under its own descendant
+            raise ValueError(
+                f"event log is inconsistent: task {'/'.join(p)!r} is its own ancestor (a cycle "
+                "of parent links)"
+            )
+        seen.add(p)
         order.append(p)
         stack.extend(reversed(children[p]))
+    if len(order) != len(records):
+        lost = len(records) - len(order)
+        raise ValueError(
+            f"event log is inconsistent: {lost} task{'s' if lost > 1 else ''} cut off from the "
+            "top-level task (a task moved under its own descendant: a cycle of parent links)"
+        )
     built: dict[tuple[str, ...], TaskNode] = {}
     for p in reversed(order):
         kids = tuple(built.pop(c) for c in children[p])

@@ -60,6 +60,7 @@ from ._rules import (
 from ._solutions import ActionGrounding, MotionCommand, ObjectData
 from ._world import (
     AABB,
+    ArmJointLimits,
     ArmSweepProbe,
     ContainerOpeningProbe,
     ContainerStates,
@@ -127,6 +128,7 @@ __all__ = [
     "Imagination",
     "ProbeResult",
     "ProjectionWorld",
+    "ArmJointLimits",
     "ArmSweepProbe",
     "ContainerOpeningProbe",
     "ContainerStates",

@@ -38,7 +38,7 @@ from ._environment import Environment, current_environment
 from ._pose import Pose, Transform
 from ._rules import WILDCARD, Rule
 from ._solutions import ActionGrounding, MotionCommand
-from .failures import DesignatorError
+from .failures import DesignatorError, DesignatorInputError
 
 if TYPE_CHECKING:
     from rich.text import Text
@@ -331,7 +331,7 @@ class Designator:
             for key, value in self._props:
                 why = _invalid(value)
                 if why is not None:
-                    raise DesignatorError(
+                    raise DesignatorInputError(
                         f"{self.short()} has an invalid {key!r} property: {why}; give finite "
                         "numbers (poses as executive.Pose)",
                         self,
@@ -671,18 +671,18 @@ def _rule_solutions(d: Designator, env: Environment) -> Iterator[Any]:
     type_ = d.type
     if type_ is None:
         if kind != "object":
-            raise DesignatorError(
+            raise DesignatorInputError(
                 f"{d.short()} has no type property: give type=..., e.g. "
                 f"{'an' if kind == 'action' else 'a'}.{kind}(type=...)",
                 d,
             )
         type_ = WILDCARD
     elif not isinstance(type_, str):
-        raise DesignatorError(f"{d.short()}: its type must be a string, got {type_!r}", d)
+        raise DesignatorInputError(f"{d.short()}: its type must be a string, got {type_!r}", d)
     rules, known = env.rules.lookup(kind, type_)
     if not rules:
         types = ", ".join(env.rules.known_types(kind)) or "none"
-        raise DesignatorError(
+        raise DesignatorInputError(
             f"{d.short()} cannot be resolved: no {kind} rule for type {type_!r} (known "
             f"{kind} types: {types}); register one with executive.register_rule("
             f"{kind!r}, {type_!r}, fn)",
@@ -704,7 +704,7 @@ def _check_keys(d: Designator, kind: str, type_: str, known: frozenset[str]) -> 
     unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
     if unknown:
         article = "an" if kind in ("action", "object") else "a"
-        raise DesignatorError(
+        raise DesignatorInputError(
             f"{d.short()}: unknown key{'s' if len(unknown) > 1 else ''} "
             f"{', '.join(repr(k) for k in unknown)} for {article} {kind} of type {type_!r}; "
             f"known keys: {', '.join(sorted(known))}",

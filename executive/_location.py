@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from ._pose import Pose
 from ._ruledoc import Key, RuleDoc
 from ._rules import Rule, builtin_rules
-from .failures import DesignatorError
+from .failures import DesignatorError, DesignatorInputError
 
 if TYPE_CHECKING:
     from ._designator import Designator
@@ -121,7 +121,7 @@ def _check_location_keys(d: Designator, generators: tuple[Rule, ...]) -> None:
     known = set().union(*(k for k in declared if k is not None))
     unknown = list(dict.fromkeys(k for k, _ in d.properties if k not in known))
     if unknown:
-        raise DesignatorError(
+        raise DesignatorInputError(
             f"{d.short()}: unknown key{'s' if len(unknown) > 1 else ''} "
             f"{', '.join(repr(k) for k in unknown)} for a location: no location generator "
             f"of this environment understands it (known keys: {', '.join(sorted(known))}); "
@@ -139,13 +139,13 @@ def _grounding_generator(d: Designator, env: Environment) -> Iterator[Pose]:
     for key, value in d.properties:
         if key == "pose":
             if not isinstance(value, Pose):
-                raise DesignatorError(
+                raise DesignatorInputError(
                     f"{d.short()}: (pose ...) must be an executive.Pose, got {value!r}", d
                 )
             yield value
         elif key == "of":
             if not isinstance(value, _D) or value.kind != "object":
-                raise DesignatorError(
+                raise DesignatorInputError(
                     f"{d.short()}: (of ...) must be an object designator, got {value!r}", d
                 )
             obj = value.current()
@@ -160,7 +160,7 @@ def _grounding_generator(d: Designator, env: Environment) -> Iterator[Pose]:
         elif key == "of-item-object":
             name = value.current().get("name") if isinstance(value, _D) else value
             if not isinstance(name, str):
-                raise DesignatorError(
+                raise DesignatorInputError(
                     f"{d.short()}: (of-item-object ...) needs an object designator with a name "
                     f"or an object name, got {value!r}",
                     d,

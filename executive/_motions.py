@@ -47,6 +47,7 @@ from ._rules import WILDCARD, builtin_rules
 from ._solutions import MotionCommand, ObjectData
 from .failures import (
     DesignatorError,
+    DesignatorInputError,
     GripperClosedCompletely,
     GripperGoalNotReached,
     ManipulationGoalNotReached,
@@ -76,14 +77,22 @@ def _pose_like(d: Designator, key: str, value: Any) -> Pose:
     )
 
 
-def _number(d: Designator, key: str, required: bool = True) -> float | None:
+def _number(
+    d: Designator, key: str, required: bool = True, *, minimum: float | None = None
+) -> float | None:
+    """``d``'s ``key`` as a finite float (``None`` if absent and not ``required``); with
+    ``minimum``, a value below it (a negative speed or effort) is refused too."""
     value = d.get(key)
     if value is None:
         if required:
             raise DesignatorError(f"{d.short()} needs a {key} property (a number)", d)
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise DesignatorError(f"{d.short()}: {key} must be a finite number, got {value!r}", d)
+        raise DesignatorInputError(f"{d.short()}: {key} must be a finite number, got {value!r}", d)
+    if minimum is not None and value < minimum:
+        raise DesignatorInputError(
+            f"{d.short()}: {key} must be a number >= {minimum:g}, got {value!r}", d
+        )
     return float(value)
 
 
@@ -113,7 +122,9 @@ def going(d: Designator) -> Iterator[MotionCommand]:
         )
     goal = _pose_like(d, "pose", pose) if pose is not None else _pose_like(d, "target", target)
     args: dict[str, Any] = {"pose": goal}
-    speed = _number(d, "speed", required=False)
+    speed = _number(d, "speed", required=False, minimum=0.0)
+    if speed == 0.0:
+        raise DesignatorInputError(f"{d.short()}: speed must be > 0 (m/s), got 0", d)
     if speed is not None:
         args["speed"] = speed
     yield MotionCommand("move-base", args)
@@ -184,7 +195,7 @@ def _open_close(action: str) -> Any:
 
 def gripping(d: Designator) -> Iterator[MotionCommand]:
     args: dict[str, Any] = {"action": "grip", "gripper": _gripper(d)}
-    effort = _number(d, "effort", required=False)
+    effort = _number(d, "effort", required=False, minimum=0.0)
     if effort is not None:
         args["effort"] = effort
     yield MotionCommand("move-gripper-joint", args)

@@ -13,9 +13,10 @@ construction, naming the bad value.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, NoReturn, cast
 
 import numpy as np
 
@@ -184,18 +185,32 @@ class Pose:
     frame: str
     _rotation: Rotation | None
 
-    def __init__(
-        self,
-        position: Sequence[float] = (0.0, 0.0, 0.0),
-        orientation_xyzw: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
-        frame: str = "map",
-    ) -> None:
-        if not isinstance(frame, str) or not frame:
-            raise ValueError(f"a pose needs a frame name, got {frame!r}")
-        object.__setattr__(self, "position", _vector(position, 3, "position"))
-        object.__setattr__(self, "orientation", _quaternion(orientation_xyzw, "orientation"))
-        object.__setattr__(self, "frame", frame)
-        object.__setattr__(self, "_rotation", None)
+    if TYPE_CHECKING:  # the signature calls are checked against
+
+        def __init__(
+            self,
+            position: Sequence[float] = (0.0, 0.0, 0.0),
+            orientation_xyzw: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+            frame: str = "map",
+        ) -> None: ...
+
+    else:  # the same at run time, where a wrong keyword gets a hint (at no cost)
+
+        def __init__(
+            self,
+            position=(0.0, 0.0, 0.0),
+            orientation_xyzw=(0.0, 0.0, 0.0, 1.0),
+            frame="map",
+            **unknown,
+        ):
+            if unknown:
+                _unknown_keywords("Pose", list(unknown))
+            if not isinstance(frame, str) or not frame:
+                raise ValueError(f"a pose needs a frame name, got {frame!r}")
+            object.__setattr__(self, "position", _vector(position, 3, "position"))
+            object.__setattr__(self, "orientation", _quaternion(orientation_xyzw, "orientation"))
+            object.__setattr__(self, "frame", frame)
+            object.__setattr__(self, "_rotation", None)
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError("Pose is immutable; use copy(...) or build a new one")
@@ -270,6 +285,27 @@ class Pose:
         )
 
     def __repr__(self) -> str:
-        p = " ".join(f"{v:.3f}" for v in self.position)
+        p = " ".join(map(_shown, self.position))
         q = " ".join(f"{v:.3f}" for v in self.orientation)
         return f"<Pose {self.frame} ({p}) ({q})>"
+
+
+def _shown(v: float) -> str:
+    """A coordinate for display: millimetres, or 6 significant digits when huge (a
+    1e300 m typo must not print 300 digits)."""
+    return f"{v:.3f}" if abs(v) < 1e9 else f"{v:.6g}"
+
+
+_POSE_KEYWORDS = ("position", "orientation_xyzw", "frame")
+
+
+def _unknown_keywords(where: str, unknown: Sequence[str]) -> NoReturn:
+    """``TypeError`` for keywords a pose does not take, suggesting the one meant (a pose's
+    orientation is ``orientation_xyzw``: the name says the quaternion's order)."""
+    name = unknown[0]
+    close = difflib.get_close_matches(name, _POSE_KEYWORDS, n=1, cutoff=0.5)
+    hint = f"; did you mean {close[0]}?" if close else ""
+    raise TypeError(
+        f"{where}() got an unexpected keyword argument {name!r}{hint} (a pose takes "
+        f"{', '.join(_POSE_KEYWORDS)}; the orientation is a quaternion (x, y, z, w))"
+    )

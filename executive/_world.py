@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AABB",
+    "ArmJointLimits",
     "ArmSweepProbe",
     "ContainerOpeningProbe",
     "ContainerStates",
@@ -173,6 +174,18 @@ class ArmSweepProbe(Protocol):
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
         """``left``/``right``: 7 joint values each, ``None``: that arm stays."""
+        ...
+
+
+@runtime_checkable
+class ArmJointLimits(Protocol):
+    """An optional query (a world model that cannot tell simply lacks it; plans then leave
+    the limits to the process module): the arm's joints and their limits, from the robot's
+    description, so that bad joint values are refused before anything moves."""
+
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        """``(joint name, lower, upper)`` (radians or metres) of ``arm``'s joints, in the
+        order joint values are given."""
         ...
 
 

@@ -25,6 +25,7 @@ __all__ = [
     "ActionlibActionTimedOut",
     "DeliveringFailed",
     "DesignatorError",
+    "DesignatorInputError",
     "DesignatorReferenceFailure",
     "EnvironmentManipulationGoalNotReached",
     "EnvironmentManipulationImpossible",
@@ -316,6 +317,20 @@ class DesignatorError(Exception):
         super().__init__(message)
         self.message = message
         self.designator = designator
+
+
+class DesignatorInputError(DesignatorError):
+    """A designator is malformed: an unknown type, key, name or arm, or a value of the
+    wrong kind. The programmer must fix the designator; no other solution, place or retry
+    can. So plans never translate it into a high-level failure (``searching`` does not turn
+    it into ``object-nowhere-to-be-found``) and retry scopes never retry it: it surfaces
+    as itself, with its "did you mean ..." hint.
+
+    Deliberate difference from CRAM: CRAM's plans translated every ``designator-error``
+    (a misspelt surface became "object nowhere to be found"); we translate only the
+    errors a retry or another solution could cure (e.g. an empty costmap)."""
+
+    cram_name = "designator-error"
 
 
 class DesignatorReferenceFailure(PlanFailure, DesignatorError):

@@ -38,6 +38,11 @@ use lives in a small mutable holder: :class:`SolutionCursor` for designators,
 :class:`ListCursor` for lazy lists. Deliberate difference from CRAM: ``reset=`` really
 replaces the given cursors' designators by fresh copies (CRAM's macro only resets a loop
 variable, a bug noted in the reference).
+
+A :class:`executive.DesignatorInputError` (a malformed designator: an unknown name, key
+or type) is never retried nor replaced by ``rethrow``, even when ``on`` covers it: the
+helpers decline and it propagates as itself. Deliberate difference from CRAM, whose
+handlers saw a misspelt name as one more failure and retried or translated it.
 """
 
 from __future__ import annotations
@@ -52,6 +57,7 @@ from typing import Any, NoReturn, TypeVar
 import cpl
 
 from ._designator import Designator, LocationDesignator, equate
+from .failures import DesignatorInputError
 
 __all__ = [
     "DEFAULT_ANGLE_THRESHOLD",
@@ -191,6 +197,8 @@ def retry_with_designator_solutions(
             "body, since Python cannot rebind your variable"
         )
     failure = failure if failure is not None else sys.exc_info()[1]
+    if isinstance(failure, DesignatorInputError):
+        return None  # a malformed designator: no other solution cures it (see module doc)
     log.warning("%s (while using %s)", _describe(failure), cursor.current.short())
     if counter.do_retry():
         nxt = cursor.advance(distance_threshold, angle_threshold)
@@ -225,6 +233,8 @@ def retry_with_list_solutions(
             "list (cursor = ListCursor(solutions)) and read cursor.current in the body"
         )
     failure = failure if failure is not None else sys.exc_info()[1]
+    if isinstance(failure, DesignatorInputError):
+        return None  # a malformed designator: no other solution cures it (see module doc)
     log.warning("%s (while using solution %r)", _describe(failure), cursor.current)
     if counter.do_retry():
         nxt = cursor.advance()
@@ -294,6 +304,8 @@ def retry_scope(
         raise TypeError(f"rethrow must be an exception, a class or a function, got {rethrow!r}")
 
     async def handler(failure: BaseException) -> None:
+        if isinstance(failure, DesignatorInputError):
+            return  # declined: a malformed designator is never retried nor rethrown
         exc = _rethrown(rethrow, failure)
         if isinstance(cursor, SolutionCursor):
             retry_with_designator_solutions(

@@ -15,6 +15,7 @@ import cpl
 import executive
 from executive import (
     DesignatorError,
+    DesignatorInputError,
     LocationDesignator,
     ObjectDesignator,
     Pose,
@@ -145,7 +146,9 @@ async def translating_designator_errors(
     body: Callable[[], Awaitable[Any]], into: Callable[[BaseException], BaseException]
 ) -> Any:
     """Run ``body()``; a ``designator-error`` leaving it becomes ``into(error)`` (chained):
-    CRAM's translation of designator errors at every plan boundary."""
+    CRAM's translation of designator errors at every plan boundary. A
+    :class:`executive.DesignatorInputError` (a malformed designator) is not translated
+    (see :func:`translating_failures`)."""
     return await translating_failures(DesignatorError, body, into)
 
 
@@ -155,9 +158,14 @@ async def translating_failures(
     into: Callable[[BaseException], BaseException],
 ) -> Any:
     """Run ``body()``; a failure of type ``failures`` leaving it becomes ``into(failure)``
-    (chained)."""
+    (chained). A :class:`executive.DesignatorInputError` always leaves as itself: a
+    misspelt name or key must reach the programmer with its hint, not as "object nowhere
+    to be found" (deliberate difference from CRAM, which translated every
+    ``designator-error``)."""
 
     def translate(error: BaseException) -> None:
+        if isinstance(error, DesignatorInputError):
+            return  # declined: the error propagates unchanged
         raise into(error) from error
 
     return await cpl.with_failure_handling(body, [(failures, translate)])

@@ -6,18 +6,21 @@ the rule (before anything moves).
 
 from __future__ import annotations
 
+import difflib
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from executive import (
     Designator,
     DesignatorError,
+    DesignatorInputError,
     LocationDesignator,
     ObjectDesignator,
     Pose,
     WorldQueries,
     current_environment,
+    knowledge,
 )
 
 from ._common import as_location
@@ -71,15 +74,20 @@ def _check_places(d: Designator, *keys: str) -> None:
         # handle link, which a world may know without knowing the container's body link
         for relation in ("on",):
             place = value.get(relation)
-            if not isinstance(place, ObjectDesignator):
-                continue
-            link = place.get("urdf-name")
-            if not isinstance(link, str):
+            if isinstance(place, str):  # (on "name"): a link or an object of the world
+                link = place
+                if link in getattr(world, "objects", ()):
+                    continue
+            elif isinstance(place, ObjectDesignator):
+                link = place.get("urdf-name")
+                if not isinstance(link, str):
+                    continue
+            else:
                 continue
             try:
                 world.link_pose(link)
             except LookupError as exc:
-                raise DesignatorError(
+                raise DesignatorInputError(
                     f"{d.short()}: its {key} is ({relation} ...) {link!r}, which this world "
                     f"does not have ({exc})",
                     d,
@@ -87,8 +95,50 @@ def _check_places(d: Designator, *keys: str) -> None:
         stack.extend((key, v) for k, v in value.properties if isinstance(v, LocationDesignator))
 
 
+def _given_arm(d: Designator, default: str | None = None) -> str | None:
+    """``d``'s ``arm`` (``default`` when absent), checked by the action's own rule: an
+    unknown arm is a :class:`executive.DesignatorInputError` naming ``d`` and the known
+    arms (it used to surface from an inner ``setting-gripper`` action, after the robot had
+    driven and reached)."""
+    arm = d.get("arm", default)
+    if arm is not None and arm not in knowledge.ARMS:
+        raise DesignatorInputError(
+            f"{d.short()}: unknown arm {arm!r}; known arms: {', '.join(knowledge.ARMS)}", d
+        )
+    return None if arm is None else str(arm)
+
+
 def _object(d: Designator) -> ObjectDesignator:
+    """``d``'s object designator. Its type, if given, must be one the robot knows (object
+    knowledge, or the type of an object of the environment's world): a misspelt type
+    (``bwol``) is a :class:`executive.DesignatorInputError` naming the known types, raised
+    by the rule before anything moves (it used to drive, turn and look ten times, then
+    fail as object-nowhere-to-be-found)."""
     value = d.get("object")
     if not isinstance(value, ObjectDesignator):
         raise DesignatorError(f"{d.short()} needs an object designator", d)
+    object_type = value.current().get("type")
+    if object_type is not None:
+        known = _known_object_types()
+        if object_type not in known:
+            close = difflib.get_close_matches(str(object_type), known, n=3, cutoff=0.5)
+            hint = f"did you mean {', '.join(close)}? " if close else ""
+            raise DesignatorInputError(
+                f"{d.short()}: unknown object type {object_type!r}; {hint}"
+                f"known types: {', '.join(known)}",
+                d,
+            )
     return value
+
+
+def _known_object_types() -> list[str]:
+    """Object knowledge's types and the types of the world's objects, sorted."""
+    types = set(knowledge.known_types())
+    world = getattr(current_environment(), "world", None)
+    objects = getattr(world, "objects", None)
+    if isinstance(objects, Mapping):
+        for entry in objects.values():
+            entry_type = entry if isinstance(entry, str) else getattr(entry, "type", None)
+            if isinstance(entry_type, str):
+                types.add(entry_type)
+    return sorted(types)

@@ -37,14 +37,17 @@ configuration, the gripper actions the grippers they name.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Iterator, Sequence
 from itertools import zip_longest
 from typing import Any
 
 import cpl
 from executive import (
+    ArmJointLimits,
     Designator,
     DesignatorError,
+    DesignatorInputError,
     GripperLowLevelFailure,
     Key,
     ManipulationLowLevelFailure,
@@ -462,13 +465,43 @@ def _object_fell_out(failure: BaseException, arms: Sequence[str]) -> None:
 
 
 def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
-    value = d.get(f"{arm}-configuration")
-    if value is None or isinstance(value, tuple):
-        return value
-    try:
-        return knowledge.arm_configuration(str(value), arm)
-    except LookupError as exc:
-        raise DesignatorError(f"{d.short()}: {exc}", d) from None
+    """The joint values of ``arm``'s configuration: a named one, or joint values checked
+    here, before anything moves (``position-arms`` ignores manipulation failures, so a bad
+    value used to move nothing and report nothing): one finite number per arm joint and,
+    if the world knows the limits (:class:`executive.ArmJointLimits`), each within them.
+    A bad value is a :class:`executive.DesignatorInputError` naming the joint."""
+    key = f"{arm}-configuration"
+    value = d.get(key)
+    if value is None:
+        return None
+    if not isinstance(value, tuple):
+        try:
+            return knowledge.arm_configuration(str(value), arm)
+        except LookupError as exc:
+            raise DesignatorInputError(f"{d.short()}: {exc}", d) from None
+    joints = knowledge.ARM_JOINTS
+    if len(value) != len(joints) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
+    ):
+        raise DesignatorInputError(
+            f"{d.short()}: {key} takes a configuration name or {len(joints)} finite joint "
+            f"values ({', '.join(joints)}); got {value!r}",
+            d,
+        )
+    world = getattr(current_environment(), "world", None)
+    if isinstance(world, ArmJointLimits):
+        for v, (joint, lo, hi) in zip(value, world.arm_joint_limits(arm)):
+            if not lo - _LIMIT_TOLERANCE <= v <= hi + _LIMIT_TOLERANCE:
+                raise DesignatorInputError(
+                    f"{d.short()}: {key}: {joint} = {v!r} is outside its limits "
+                    f"[{lo:.4f}, {hi:.4f}]",
+                    d,
+                )
+    return tuple(float(v) for v in value)
+
+
+#: Joint values this far past a limit (radians or metres) are still accepted (rounding).
+_LIMIT_TOLERANCE = 1e-6
 
 
 _CONFIGURATION = "'park' | 'carry' | 7 joint values (rad)"
@@ -554,6 +587,14 @@ async def grip(gripper: Any, effort: float | None = None) -> None:
 )
 def _gripping(d: Designator) -> Iterator[Any]:
     effort = d.get("effort")
+    # checked here, where the action is named (the motion checks it again)
+    if effort is not None and (
+        isinstance(effort, bool)
+        or not isinstance(effort, (int, float))
+        or not math.isfinite(effort)
+        or effort < 0
+    ):
+        raise DesignatorInputError(f"{d.short()}: effort must be a number >= 0, got {effort!r}", d)
     yield grip, {"gripper": _gripper(d), "effort": None if effort is None else float(effort)}
 
 

@@ -247,7 +247,8 @@ def spawn_scene(
     environment, so call it in one whose location rules are bound to ``world`` (e.g.
     ``with_projected_robot(world)``); a robot whose belief does not know the objects yet
     (the simulated real robot) must set up its true world that way first. Returns the
-    spawn pose of each object, by name."""
+    spawn pose of each object, by name. An unknown type -> ``LookupError`` naming the
+    demo's types, before anything is spawned."""
     _spawn(world, objects, random, np.random.default_rng(seed))
     return {f"{t}-1": world.object_pose(f"{t}-1") for t in objects}
 
@@ -255,6 +256,12 @@ def spawn_scene(
 def _spawn(
     world: SceneSetup, objects: Sequence[str], random: bool, rng: np.random.Generator
 ) -> None:
+    unknown = [t for t in objects if t not in FIXED_POSES]
+    if unknown:
+        raise LookupError(
+            f"unknown object type{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(map(repr, unknown))}; the demo's types: {', '.join(FIXED_POSES)}"
+        )
     for object_type in objects:
         name = f"{object_type}-1"
         if name in world.objects:

@@ -50,7 +50,7 @@ from ._common import (
     the_base,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _location
+from ._designators import ROBOT, _given_arm, _location
 from .checks import check_environment_manipulation_collisions
 from .environment import DEFAULT_DISTANCE, handle_link
 from .navigation import BaseStoppedShort
@@ -133,7 +133,7 @@ def _environment_rule(action_type: str) -> Any:
         container = location.get("in")
         if not isinstance(container, ObjectDesignator):
             raise DesignatorError(f"{d.short()}: its location must be (in <container>)", d)
-        arm = d.get("arm", "left")
+        arm = _given_arm(d, "left")
         distance = float(d.get("distance", DEFAULT_DISTANCE))
         yield (
             manipulate_environment,

@@ -59,7 +59,7 @@ from ._common import (
     the_base,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _object, default_of
+from ._designators import ROBOT, _check_places, _given_arm, _object, default_of
 from .atomic import park_arms
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
@@ -356,7 +356,7 @@ def _fetching(d: Designator) -> Iterator[Any]:
         fetch,
         {
             "object_designator": _object(d),
-            "arm": d.get("arm"),
+            "arm": _given_arm(d),
             "robot_location": d.get("robot-location"),
             "pick_up_action": d.get("pick-up-action"),
         },

@@ -66,6 +66,7 @@ from executive import (
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
 from ._common import hand_of, object_label, perform_ignoring, to_base, tool_frame, wrist_link
+from ._designators import _given_arm
 
 _log = logging.getLogger(__name__)
 
@@ -330,7 +331,8 @@ def _picking_up(d: Designator) -> Iterator[Any]:
             m = transform.matrix()
             m[:3, :3] = Transform((0.0, 0.0, 0.0), yaw_quaternion(yaw)).matrix()[:3, :3]
             frames.append(Transform.from_matrix(m, transform.frame, transform.child_frame))
-    arms = (d["arm"],) if "arm" in d else knowledge.ARMS
+    arm_given = _given_arm(d)
+    arms = (arm_given,) if arm_given is not None else knowledge.ARMS
     grasp_names = (d["grasp"],) if "grasp" in d else knowledge.grasps(otype)
     for arm in arms:
         for grasp_name, frame in ((g, f) for g in grasp_names for f in frames):
@@ -483,7 +485,8 @@ def placing_waypoints(
 def _placing(d: Designator) -> Iterator[Any]:
     world = current_environment().world
     given = d.get("object")
-    arms = (d["arm"],) if "arm" in d else knowledge.ARMS
+    arm_given = _given_arm(d)
+    arms = (arm_given,) if arm_given is not None else knowledge.ARMS
     in_hand = [(arm, world.object_in_hand(arm)) for arm in arms]
     held = [(arm, n) for arm, n in in_hand if n is not None]
     if isinstance(given, ObjectDesignator) and given.current().get("name"):

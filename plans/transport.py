@@ -36,7 +36,7 @@ from executive import (
 )
 
 from ._common import the_base
-from ._designators import ROBOT, _check_places, _location, _object
+from ._designators import ROBOT, _check_places, _given_arm, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
 from .environment_access import seal_if_open
@@ -223,7 +223,7 @@ def _transporting(d: Designator) -> Iterator[Any]:
             "object_designator": _object(d),
             "location": _location(d, "location"),
             "target": _location(d, "target"),
-            "arm": d.get("arm"),
+            "arm": _given_arm(d),
             "projection_reasoning": bool(d.get("projection-reasoning", True)),
             "projection_runs": int(d.get("projection-runs", 3)),
             "viewpoint_reasoning": bool(d.get("viewpoint-reasoning", False)),

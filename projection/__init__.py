@@ -45,10 +45,12 @@ _EXPORTS = MappingProxyType(
         "RobotBody": "projection._robot_body",
         "kinematic_tree": "projection._robot_body",
         "load_robot": "projection._robot_body",
+        "BadObjectPose": "projection._world_base",
     }
 )
 
 __all__ = [
+    "BadObjectPose",
     "FaultProfile",
     "ProjectedWorldModel",
     "ProjectionImagination",
@@ -78,7 +80,7 @@ if TYPE_CHECKING:
     from projection._robot_body import RobotBody, kinematic_tree, load_robot
     from projection._scene import make_world_pair
     from projection._world import World
-    from projection._world_base import SpawnOverlap
+    from projection._world_base import BadObjectPose, SpawnOverlap
     from projection._world_model import ProjectedWorldModel
 
 

@@ -40,7 +40,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from executive import DesignatorError, Key, RuleDoc, RuleSet, static_rules
+from executive import DesignatorError, DesignatorInputError, Key, RuleDoc, RuleSet, static_rules
 from executive._designator import Designator
 from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable
@@ -380,7 +380,7 @@ class LocationCostmaps:
                     name += "_"
                 world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
-                world.set_object_pose(name, p)
+                world.set_object_pose(name, p, allow_overlap=True)
             hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]
         finally:
             world.restore(snap)
@@ -423,7 +423,9 @@ class LocationCostmaps:
         return plan
 
     def _error(self, d: Designator, message: str) -> DesignatorError:
-        return DesignatorError(f"{_describe(d)}: {message}", d)
+        # callers report a malformed designator (a bad key, name or value), which no other
+        # solution cures: not translated or retried by plans
+        return DesignatorInputError(f"{_describe(d)}: {message}", d)
 
     def _check_modifiers(self, d: Designator) -> None:
         mods = sorted({k for k, _ in d.properties if k in _MODIFIERS} - {"arm"})
@@ -632,8 +634,11 @@ class LocationCostmaps:
                 return world.object_pose(items[0]).position, items[0], otype
         if isinstance(name, str):
             raise self._unknown(d, key, name)
-        raise self._error(
-            d, f"({key} {obj.short()}): no item of type {otype!r} in the world and no pose"
+        # the world's state, not a malformed designator: plans may translate it
+        raise DesignatorError(
+            f"{_describe(d)}: ({key} {obj.short()}): no item of type {otype!r} in the world "
+            "and no pose",
+            d,
         )
 
     def _target(self, d: Designator, key: str) -> tuple[tuple[float, float, float], str | None]:

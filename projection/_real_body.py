@@ -88,7 +88,7 @@ def sync_robot(true_world: World, belief_world: World) -> None:
         if body == robot and index >= 0:  # a robot link (not the base), as _robot_links
             lp = belief_world.link_pose(link)
             pos, orn = pb.multiplyTransforms(lp.position, lp.orientation, rp, rq)
-            belief_world.set_object_pose(name, Pose(pos, orn))
+            belief_world.set_object_pose(name, Pose(pos, orn), allow_overlap=True)
 
 
 class _Body:

@@ -79,6 +79,9 @@ class RealWorldModel:
         not offered (no :class:`executive.ObjectSpawning`): reality is not spawned into."""
         return self.belief.object_names()
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        return self.belief.arm_joint_limits(arm)
+
     def gripper_opening(self, arm: str) -> float | None:
         """The finger opening of ``arm``: the belief robot mirrors the true joint states
         (as a real robot's belief has them from its joint-state topic)."""
@@ -178,7 +181,7 @@ class RealWorldModel:
         belief = self.belief_world
         if name in belief.objects:
             if belief.attachments.get(name) not in self._links:  # not in the robot's hand
-                belief.set_object_pose(name, pose)
+                belief.set_object_pose(name, pose, allow_overlap=True)
         elif isinstance(otype, str):
             belief.spawn_object(name, otype, pose, allow_overlap=True)  # noisy percepts
 

@@ -6,6 +6,7 @@ stability) are mixins on this base, in their own modules."""
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -35,6 +36,7 @@ __all__ = [
     "KITCHEN",
     "ROBOT",
     "SPAWN_OVERLAP",
+    "BadObjectPose",
     "SpawnOverlap",
     "WorldBase",
 ]
@@ -47,6 +49,27 @@ KITCHEN = "kitchen"
 #: How deep (m) a new object may reach into another object or the robot when spawned: more
 #: is an overlap (:class:`SpawnOverlap`), which physics would resolve by throwing objects.
 SPAWN_OVERLAP = 0.005
+
+
+class BadObjectPose(ValueError):
+    """``spawn_object`` / ``set_object_pose`` refused ``pose`` (the world is unchanged):
+    not finite in ``map`` (a ``base_footprint`` pose too far away), outside the room, its
+    centre under the floor or above :data:`MAX_OBJECT_HEIGHT`, or its centre inside a piece
+    of furniture. Fields: ``name`` (the object), ``argument`` (``"pose"``)."""
+
+    def __init__(self, message: str, name: str, argument: str = "pose") -> None:
+        super().__init__(message)
+        self.name = name
+        self.argument = argument
+
+
+#: How high (m) above the floor an object's centre may be put: nothing in the kitchen is
+#: taller than ~2.1 m; higher is a typo, not a scene.
+MAX_OBJECT_HEIGHT = 3.0
+#: How deep (m) an object's centre may be inside a kitchen link before it is "inside the
+#: furniture": objects stand on surfaces with their centre above them (the demo's cereal
+#: box, CRAM's pose, has its centre right at the counter top).
+FURNITURE_DEPTH = 0.01
 
 
 class SpawnOverlap(ValueError):
@@ -78,6 +101,10 @@ class WorldBase:
     def __init__(self, seed: int | None = None, gui: bool = False) -> None:
         self._c = -1
         self._side = -1
+        if seed is not None and (
+            isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0
+        ):
+            raise ValueError(f"World(seed=...) takes None or an integer >= 0, got {seed!r}")
         if gui:
             if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
                 raise RuntimeError("World(gui=True) needs a display (DISPLAY is not set)")
@@ -99,6 +126,8 @@ class WorldBase:
         # part of the kitchen (costmaps treat kitchen links as obstacles); resting contact
         # with the robot's base is within COLLISION_TOLERANCE and never counts.
         self._floor = _static_plane(c)
+        # a 1 mm sphere shape (no body) for "is this point inside the furniture?" queries
+        self._point_shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=0.001, physicsClientId=c)
         self._links: dict[str, tuple[int, int]] = {}
         self._kitchen_joints: dict[str, int] = {}
         self._robot_joints: dict[str, int] = {}
@@ -355,6 +384,14 @@ class WorldBase:
         expected)."""
         return joint in self._robot_joints or joint in self._kitchen_joints
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        """``(joint, lower, upper)`` of the 7 arm joints (``knowledge.ARM_JOINTS`` order),
+        from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        return tuple(
+            (f"{ARM_PREFIX[self._arm(arm)]}_{name}", *self._limits[i])
+            for name, i in zip(knowledge.ARM_JOINTS, self._arm_joints[self._arm(arm)])
+        )
+
     def arm_joints(self, arm: str) -> tuple[float, ...]:
         """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
         self._check()
@@ -386,7 +423,7 @@ class WorldBase:
         if name in self._objects:
             raise ValueError(f"an object called {name!r} already exists")
         otype = object_type(type)
-        pos, orn = self._to_map(pose)
+        pos, orn = self._checked_pose(name, pose, check_scene=not allow_overlap)
         body = pb.loadURDF(str(ASSETS / "objects" / otype.urdf_name), pos, orn, physicsClientId=c)
         if not allow_overlap:
             overlaps = self._overlaps(body)
@@ -402,6 +439,60 @@ class WorldBase:
         self._objects[name] = _Obj(otype.name, body)
         self._bodies[body] = name
         return name
+
+    def _checked_pose(self, name: str, pose: Pose, *, check_scene: bool) -> _Tf:
+        """``pose`` in map, or :class:`BadObjectPose` saying what is wrong with it. Always
+        refused: a non-finite result; with ``check_scene``: a centre outside the room, under
+        the floor, above :data:`MAX_OBJECT_HEIGHT` or inside a kitchen link."""
+        if not isinstance(pose, Pose):
+            raise TypeError(f"pose must be an executive.Pose, got {pose!r}")
+        pos, orn = self._to_map(pose)
+        where = f"({', '.join(f'{v:.6g}' for v in pos)})"
+        if not all(map(math.isfinite, (*pos, *orn))):
+            raise BadObjectPose(
+                f"cannot put {name!r} at pose {pose!r}: it is {where} in map, not finite "
+                "numbers (a base_footprint pose too far away?)",
+                name,
+            )
+        if not check_scene:
+            return pos, orn
+        x0, y0, x1, y1 = self._room
+        if not (x0 <= pos[0] <= x1 and y0 <= pos[1] <= y1):
+            raise BadObjectPose(
+                f"cannot put {name!r} at pose {where} (map): outside the room, x in "
+                f"[{x0:.2f}, {x1:.2f}] and y in [{y0:.2f}, {y1:.2f}]",
+                name,
+            )
+        if not 0.0 <= pos[2] <= MAX_OBJECT_HEIGHT:
+            raise BadObjectPose(
+                f"cannot put {name!r} at pose {where} (map): its centre must be between the "
+                f"floor (z = 0) and {MAX_OBJECT_HEIGHT} m",
+                name,
+            )
+        inside = self._furniture_at(pos)
+        if inside is not None:
+            raise BadObjectPose(
+                f"cannot put {name!r} at pose {where} (map): its centre is inside the "
+                f"kitchen's {inside}; put it on a surface or in a container",
+                name,
+            )
+        return pos, orn
+
+    def _furniture_at(self, point: Sequence[float]) -> str | None:
+        """The kitchen link whose collision box holds ``point`` more than
+        :data:`FURNITURE_DEPTH` deep, or None (a 1 mm sphere shape, no body)."""
+        points = pb.getClosestPoints(
+            -1,
+            self._kitchen,
+            0.0,
+            collisionShapeA=self._point_shape,
+            collisionShapePositionA=point,
+            physicsClientId=self._c,
+        )
+        deepest = min(points, key=lambda q: q[8], default=None)
+        if deepest is None or deepest[8] > -FURNITURE_DEPTH - 0.001:
+            return None
+        return self._link_names.get((self._kitchen, deepest[4]), "body")
 
     def _overlaps(self, body: int) -> tuple[str, ...]:
         """Names of the objects and the robot that ``body`` reaches into by more than
@@ -424,11 +515,14 @@ class WorldBase:
         del self._bodies[obj.body]
         self._attached.pop(name, None)
 
-    def set_object_pose(self, name: str, pose: Pose) -> None:
-        """Teleport an object (velocities zeroed); attached objects keep their link."""
+    def set_object_pose(self, name: str, pose: Pose, *, allow_overlap: bool = False) -> None:
+        """Teleport an object (velocities zeroed); attached objects keep their link. A pose
+        outside the room, under the floor or inside furniture -> :class:`BadObjectPose`,
+        world unchanged (``allow_overlap=True`` only refuses non-finite poses: for probes
+        and belief updates that place objects where physics or perception put them)."""
         self._check()
         obj = self._obj(name)
-        pos, orn = self._to_map(pose)
+        pos, orn = self._checked_pose(name, pose, check_scene=not allow_overlap)
         pb.resetBasePositionAndOrientation(obj.body, pos, orn, physicsClientId=self._c)
         pb.resetBaseVelocity(obj.body, (0, 0, 0), (0, 0, 0), physicsClientId=self._c)
         if name in self._attached:

@@ -143,6 +143,16 @@ class ArmIK(WorldBase):
         # target, the torso height and the seed, never on the rest of the world)
         local = {arm: self._in_base(pos, orn) for arm, (pos, orn) in goals.items()}
         wrists = {arm: _wrist_point(p, q) for arm, (p, q) in local.items()}
+        for arm, wrist in wrists.items():
+            if not all(map(math.isfinite, wrist)):
+                # a goal so far away (e.g. 1e300 m) that its transform overflowed: out of
+                # reach, as a plan failure (it used to escape as OverflowError / NaN)
+                raise ManipulationPoseUnreachable(
+                    f"the {arm} goal is out of reach: its point in map is "
+                    f"({', '.join(f'{v:.6g}' for v in goals[arm][0])})",
+                    left=left,
+                    right=right,
+                )
         torso_set = current
         try:
             for h in heights:
@@ -192,9 +202,11 @@ class ArmIK(WorldBase):
         dz = wrist[2] - (cz + height)
         rxy = math.hypot(dx, dy)
         r = self._pan_radius[arm]
-        near2 = (rxy - r) ** 2 + dz * dz
-        far2 = (rxy + r) ** 2 + dz * dz
-        return near2 <= self._reach_max2 and far2 >= self._reach_min2
+        # hypot, not squares: a huge finite goal (1e200 m) must be "out of reach", not an
+        # OverflowError escaping every plan's failure handling
+        near = math.hypot(rxy - r, dz)
+        far = math.hypot(rxy + r, dz)
+        return near * near <= self._reach_max2 and far * far >= self._reach_min2
 
     def _solve_arm_cached(
         self,

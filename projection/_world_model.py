@@ -149,6 +149,10 @@ class ProjectedWorldModel:
         """Remove an object from the projected world (``LookupError`` if unknown)."""
         self.world.remove_object(name)
 
+    def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
+        """``(joint, lower, upper)`` of ``arm``'s 7 joints (see ``World``)."""
+        return self.world.arm_joint_limits(arm)
+
     def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
         finger joints; a real robot's belief has them from its joint states)."""

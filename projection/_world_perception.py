@@ -12,7 +12,7 @@ import numpy as np
 import pybullet as pb
 
 from executive._pose import Pose, Transform
-from executive.failures import PerceptionObjectNotFound, PtuGoalNotReached
+from executive.failures import PerceptionObjectNotFound, PtuGoalNotReached, PtuGoalUnreachable
 from projection import _urdf
 from projection._world_base import WorldBase
 
@@ -41,7 +41,10 @@ class Perception(WorldBase):
     def look_at(self, target: Pose | str) -> None:
         """Point the camera (optical z) at a Pose (map or base_footprint), at a link's
         origin (a link name), or ``"forward"`` (pan = tilt = 0). Pan/tilt beyond their
-        limits by > 1e-5 -> :class:`PtuGoalNotReached` (``target=...``), head unchanged."""
+        limits by > 1e-5 -> :class:`PtuGoalNotReached` (``target=...``), head unchanged. A
+        target whose pan/tilt cannot be computed (a point so far away, e.g. 1e300 m, that
+        the transforms overflow to inf or NaN) -> :class:`PtuGoalUnreachable`, head
+        unchanged (the head joints used to be set to NaN, blinding detection)."""
         self._check()
         if isinstance(target, str):
             if target == "forward":
@@ -50,7 +53,13 @@ class Perception(WorldBase):
             point = self._link_tf(*self._link(target))[0]
         else:
             point = self._to_map(target)[0]
-        pan, tilt = self._ptu_angles(point)
+        pan, tilt = self._ptu_angles(point) if all(map(math.isfinite, point)) else (math.nan,) * 2
+        if not (math.isfinite(pan) and math.isfinite(tilt)):
+            raise PtuGoalUnreachable(
+                f"cannot point the camera at the point ({', '.join(f'{v:.6g}' for v in point)}) "
+                "in map: too far away to compute pan and tilt",
+                target=target,
+            )
         (plo, phi), (tlo, thi) = self._limits[self._pan], self._limits[self._tilt]
         cpan, ctilt = min(max(pan, plo), phi), min(max(tilt, tlo), thi)
         if abs(cpan - pan) > 1e-5 or abs(ctilt - tilt) > 1e-5:

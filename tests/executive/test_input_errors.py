@@ -94,3 +94,37 @@ def test_rules_that_declare_keys_reject_others_and_undeclared_ones_allow_any(
     assert seen == [1]  # the bad one never ran
     with pytest.raises(TypeError, match="collection of key names"):
         rules.register("action", "oops", strict, keys="x")
+
+
+@pytest.mark.parametrize(
+    ("motion", "message"),
+    [
+        (a.motion(type="going", pose=HOME, speed=-1.0), r"speed must be a number >= 0"),
+        (a.motion(type="going", pose=HOME, speed=0), r"speed must be > 0"),
+        (a.motion(type="gripping", gripper="left", effort=-5), r"effort must be a number >= 0"),
+    ],
+)
+def test_negative_speeds_and_efforts_are_refused(mrun: Any, motion: Any, message: str) -> None:
+    pm = FakeProcessModule("any", accepts=("going", "gripping"), result="done")
+
+    async def main() -> None:
+        async with with_process_modules(pm):
+            await perform(motion)
+
+    with pytest.raises(DesignatorError, match=message):
+        mrun(main, name="negative")
+    assert pm.calls == []  # nothing moved
+
+
+def test_a_negative_gripping_effort_is_refused_at_the_action(mrun: Any) -> None:
+    pm = FakeProcessModule("grippers", accepts="gripping", result="done")
+
+    async def main() -> None:
+        import plans  # noqa: F401 - registers the action rules
+
+        async with with_process_modules(pm):
+            await perform(an.action(type="gripping", gripper="left", effort=-5))
+
+    with pytest.raises(DesignatorError, match=r"action \(type gripping\).*effort must be"):
+        mrun(main, name="negative-effort")
+    assert pm.calls == []

@@ -68,3 +68,16 @@ def test_pose_transform_round_trip(x: float, y: float, z: float, yaw: float) -> 
     again = Transform.from_matrix(m).to_pose()
     assert again.isclose(pose, 1e-9, 1e-6)
     assert hash(pose) == hash(Pose(pose.position, pose.orientation))
+
+
+def test_a_misnamed_keyword_suggests_the_right_one() -> None:
+    with pytest.raises(TypeError, match=r"'orientation'; did you mean orientation_xyzw\?"):
+        Pose((0.0, 0.0, 0.0), orientation=(0.0, 0.0, 0.0, 1.0))  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match=r"'pos'; did you mean position\?"):
+        Pose(pos=(1.0, 0.0, 0.0))  # type: ignore[call-arg]
+
+
+def test_a_huge_position_is_shown_briefly() -> None:
+    assert (
+        repr(Pose((1e300, 1.0, 2.0))) == "<Pose map (1e+300 1.000 2.000) (0.000 0.000 0.000 1.000)>"
+    )

@@ -153,3 +153,48 @@ def test_a_list_scope_walks_the_list() -> None:
 def test_misuse_is_a_type_error_at_decoration(args: Any, kwargs: Any, match: str) -> None:
     with pytest.raises(TypeError, match=match):
         retry_scope(*args, **kwargs)
+
+
+@pytest.mark.parametrize("cursor_kind", ["designator", "list", "none"])
+def test_a_malformed_designator_is_never_retried_nor_rethrown(cursor_kind: str) -> None:
+    """A DesignatorInputError (a misspelt name) leaves every kind of scope as itself, even
+    when the scope's ``on`` covers designator errors; a plain DesignatorError is retried."""
+    from executive import DesignatorError, DesignatorInputError
+
+    def run(error: Exception) -> tuple[int, BaseException | None]:
+        tries = 0
+
+        async def main() -> None:
+            nonlocal tries
+            async with environment(rules=_rules([1.0, 2.0, 3.0])):
+                cursor: Any = {
+                    "designator": SolutionCursor(a.location(reachable_for="pr2")),
+                    "list": ListCursor([1, 2, 3]),
+                    "none": None,
+                }[cursor_kind]
+
+                @retry_scope(
+                    DesignatorError,
+                    cursor,
+                    cpl.RetryCounter(5),
+                    rethrow=lambda f: ObjectUnreachable(f"gave up after {f}"),
+                )
+                async def body() -> None:
+                    nonlocal tries
+                    tries += 1
+                    raise error
+
+                await body()
+
+        try:
+            cpl.run(main)
+        except Exception as exc:
+            return tries, exc
+        return tries, None
+
+    tries, exc = run(DesignatorInputError("(on ...): no link 'nosuch'; did you mean sink?"))
+    assert tries == 1
+    assert isinstance(exc, DesignatorInputError) and "did you mean sink" in str(exc)
+    tries, exc = run(DesignatorError("the costmap is empty"))
+    assert tries == 3 if cursor_kind != "none" else tries == 6
+    assert isinstance(exc, ObjectUnreachable)

@@ -114,3 +114,84 @@ def test_importing_plans_keeps_unknown_location_keys_an_error() -> None:
     del plans
     with pytest.raises(DesignatorError, match=r"unknown key 'on-top-of' for a location"):
         a.location(on_top_of=an.object(type="table")).reference()
+
+
+def test_a_misspelt_surface_name_surfaces_with_its_hint_before_the_robot_moves(mrun, world):
+    """(on "nosuch_surface") is bad input: the "did you mean" DesignatorError reaches the
+    caller, neither retried nor translated into object-nowhere-to-be-found."""
+    from executive import ObjectNowhereToBeFound
+    from plans.search import search_for_object
+
+    before = _state(world)
+    searching = an.action(
+        type="searching", object=an.object(type="bowl"), location=a.location(on="nosuch_surface")
+    )
+    with pytest.raises(DesignatorError, match="did you mean sink_area_surface") as caught:
+        _run(mrun, world, searching)
+    assert not isinstance(caught.value, ObjectNowhereToBeFound)
+    assert _state(world) == before
+
+    # the plan called directly (no rule checks its input first): the location's own error
+    async def direct():
+        async with projection.with_projected_robot(world):
+            await search_for_object(an.object(type="bowl"), a.location(on="nosuch_surface"))
+
+    with pytest.raises(DesignatorError, match="did you mean sink_area_surface"):
+        mrun(direct)
+    assert _state(world) == before
+
+
+@pytest.mark.parametrize("action_type", ["transporting", "searching", "fetching"])
+def test_an_unknown_object_type_names_the_known_types_before_the_robot_moves(
+    mrun, world, action_type
+):
+    before = _state(world)
+    keys = {} if action_type == "fetching" else {"location": fetch_location("bowl")}
+    if action_type == "transporting":
+        keys["target"] = place_location("bowl")
+    action = an.action(type=action_type, object=an.object(type="bwol"), **keys)
+    with pytest.raises(
+        DesignatorError, match=r"unknown object type 'bwol'; did you mean bowl\?.*known types"
+    ):
+        _run(mrun, world, action)
+    assert _state(world) == before
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ((5.0,) * 7, r"outside its limits \["),
+        ((0.0, 0.0, 0.0), r"7 finite joint values \(shoulder_pan_joint"),
+        ((0.0,) * 8, "7 finite joint values"),
+    ],
+)
+def test_bad_arm_joint_values_are_refused_before_the_arm_moves(mrun, world, values, message):
+    """position-arms ignores manipulation failures, so bad values used to return None
+    and move nothing without a word."""
+    before = _state(world)
+    action = an.action(type="positioning-arm", left_configuration=values)
+    with pytest.raises(DesignatorError, match=message) as caught:
+        _run(mrun, world, action)
+    if "limits" in message:
+        lo, hi = world.arm_joint_limits("left")[0][1:]
+        assert f"l_shoulder_pan_joint = 5.0 is outside its limits [{lo:.4f}, {hi:.4f}]" in str(
+            caught.value
+        )
+    assert _state(world) == before
+
+
+@pytest.mark.parametrize("action_type", ["transporting", "fetching", "picking-up"])
+def test_an_unknown_arm_is_reported_at_the_action_given_it(mrun, world, action_type):
+    """Not by an inner setting-gripper action, after the robot has driven and reached."""
+    before = _state(world)
+    keys = {"arm": "middle", "object": an.object(type="bowl")}
+    if action_type == "transporting":
+        keys.update(location=fetch_location("bowl"), target=place_location("bowl"))
+    if action_type == "picking-up":
+        keys["object"] = an.object(type="bowl", name="bowl-1", pose=Pose((1.4, 0.8, 0.87)))
+    with pytest.raises(
+        DesignatorError,
+        match=rf"action \(type {action_type}\).*unknown arm 'middle'; known arms: right, left",
+    ):
+        _run(mrun, world, an.action(type=action_type, **keys))
+    assert _state(world) == before
