@@ -203,6 +203,8 @@ class CollisionModel:
         self.objects: dict[str, int] = {}
         self.held: dict[str, _Held] = {}
         self._self_pairs: dict[tuple[int, ...], frozenset[tuple[int, int]]] = {}
+        # invariant: the self pairs Bullet makes contacts for (None: all, as loaded)
+        self._focus: frozenset[tuple[int, int]] | None = None
         # one reset: Bullet then tests the fixed robot against the fixed kitchen
         pb.resetBasePositionAndOrientation(self.robot, (0, 0, 0), (0, 0, 0, 1), physicsClientId=c)
 
@@ -287,9 +289,11 @@ class CollisionModel:
     def _add_object(self, otype: str, tf: Tf, held: bool) -> int:
         c = self._c
         t = object_type(otype)
-        if held or self.padding == 0.0:
-            # the world's own geometry (never stepped: its mass only makes it collide)
+        if held:  # the world's own geometry, dynamic: it makes contacts with static bodies
             return int(pb.loadURDF(str(ASSETS / "objects" / t.urdf_name), *tf, physicsClientId=c))
+        # an obstacle: the type's primitives (a URDF cylinder loads as its inscribed hull:
+        # the primitive is the true shape), inflated, static (no contacts with the kitchen
+        # or other obstacles are ever computed)
         pad = self.padding
         kinds, extents, radii, lengths, positions, orientations = [], [], [], [], [], []
         for s in t.shapes:
@@ -358,6 +362,7 @@ class CollisionModel:
             return self._self_pairs[key]
         c = self.client
         robot = self.robot
+        self._filter(None)  # the samples below see every self contact
         n = pb.getNumJoints(robot, physicsClientId=c)
         parent = {i: int(pb.getJointInfo(robot, i, physicsClientId=c)[16]) for i in range(n)}
         geometric = {
@@ -442,6 +447,29 @@ class CollisionModel:
         pairs = frozenset(candidates - always - default)
         self._self_pairs[key] = pairs
         return pairs
+
+    def focus(self, chain: ArmChain) -> None:
+        """Let Bullet make self contacts only between ``chain``'s checked pairs (the
+        others are filtered out before the narrowphase: the simplified links of a robot
+        overlap at many joints, and each overlap costs contact points on every check).
+        Focusing another chain restores the pairs the first one filtered."""
+        self._filter(self.self_pairs(chain))
+
+    def _filter(self, pairs: frozenset[tuple[int, int]] | None) -> None:
+        """Bullet makes self contacts for ``pairs`` only (None: for every pair)."""
+        if self._focus == pairs:
+            return
+        c = self.client
+        robot = self.robot
+        links = range(-1, pb.getNumJoints(robot, physicsClientId=c))
+        for a in links:
+            for b in links:
+                if a < b:
+                    on = self._focus is None or (a, b) in self._focus
+                    want = pairs is None or (a, b) in pairs
+                    if on != want:
+                        pb.setCollisionFilterPair(robot, robot, a, b, int(want), physicsClientId=c)
+        self._focus = pairs
 
     def chain(self, joints: Sequence[str], tool_link: str, touch_links: Iterable[str]) -> ArmChain:
         """:meth:`ArmChain.from_body` on this model's robot."""

@@ -180,6 +180,7 @@ class _Checker:
     def __init__(self, model: CollisionModel, chain: ArmChain, allowed: Iterable[str]) -> None:
         self.model = model
         self.chain = chain
+        model.focus(chain)
         self.pairs = model.self_pairs(chain)
         self.allowed_bodies, self.allowed_links = model.allowed_bodies(allowed)
         self.held = [h for h in model.held.values() if h.link in chain.moving_links]

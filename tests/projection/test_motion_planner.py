@@ -282,3 +282,17 @@ def test_time_parameterisation_respects_limits_and_rests_at_vertices() -> None:
     assert times[-1] - times[corner] >= 4.0
     # it starts and ends each segment slowly (from and to rest)
     assert speed[0].max() < speed[len(speed) // 4].max()
+
+
+def test_one_model_serves_both_arms() -> None:
+    """Focusing the model on one arm's self pairs filters Bullet's self contacts; the
+    other arm's pairs, computed afterwards, are those of a fresh model."""
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        left = [f"l_{j}" for j in knowledge.ARM_JOINTS]
+        with CollisionModel.from_world(world) as fresh, CollisionModel.from_world(world) as shared:
+            right_chain = fresh.chain(RIGHT, TOOL, ["r_gripper_palm_link"])
+            expected = fresh.self_pairs(right_chain)
+            shared.focus(shared.chain(left, "l_gripper_tool_frame", ["l_gripper_palm_link"]))
+            assert shared.self_pairs(shared.chain(RIGHT, TOOL, ["r_gripper_palm_link"])) == expected
+            assert expected  # the right arm can hit the body and the left arm
