@@ -175,7 +175,7 @@ def main() -> None:
     other.sync(world)
     synced = time.perf_counter() - t0
     other.close()
-    print(f"planner build {built * 1e3:.1f} ms (two models + self pairs), sync {synced * 1e3:.1f} ms")
+    print(f"planner build {built * 1e3:.1f} ms (2 models, self pairs), sync {synced * 1e3:.1f} ms")
     for p in planners.values():
         p.close()
     world.close()
