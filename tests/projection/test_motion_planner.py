@@ -296,3 +296,53 @@ def test_one_model_serves_both_arms() -> None:
             shared.focus(shared.chain(left, "l_gripper_tool_frame", ["l_gripper_palm_link"]))
             assert shared.self_pairs(shared.chain(RIGHT, TOOL, ["r_gripper_palm_link"])) == expected
             assert expected  # the right arm can hit the body and the left arm
+
+
+def test_the_controller_plans_free_motions_only_when_asked(sink: World) -> None:
+    """``World.arm_motion_planning`` (off by default) makes the simulated controller's
+    configuration moves OMPL paths: the carry -> pregrasp move that the straight line and
+    the raised-via detours route through the kitchen or the robot's own body is clear."""
+    from projection._arm_planner import arm_path, swept_objects
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    assert sink.arm_motion_planning is False
+    planner = _planner(sink)
+    try:
+        routed = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+        assert routed is not None
+        sink.arm_motion_planning = True
+        planned = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+        assert planned is not None and planned != routed
+        assert planned[0]["right"] == start and planned[-1]["right"] == goal
+        assert sink.motion_planning_fallbacks == 0
+        torso = sink.torso_height
+
+        def hits(path: list[dict[str, tuple[float, ...]]]) -> set[tuple[str, str]]:
+            out: set[tuple[str, str]] = set()
+            for a, b in itertools.pairwise(path):
+                q0, q1 = np.array(a["right"]), np.array(b["right"])
+                for f in np.linspace(0.0, 1.0, 6):
+                    out |= set(planner.collisions(q0 + f * (q1 - q0)))
+            return out
+
+        assert hits(routed)  # today's router: through the counter or the robot
+        assert not hits(planned)
+        free = set(sink.objects)
+        assert swept_objects(sink, [(torso, c) for c in planned], free - {"cup-1"}) == set()
+    finally:
+        planner.close()
+
+
+def test_a_planning_failure_falls_back_to_the_router_and_is_counted(sink: World) -> None:
+    from projection._arm_planner import arm_path
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    # a box where the forearm ends: the planner refuses the goal, the router still moves
+    sink.move_joints(right=goal)
+    forearm = sink.link_pose("r_forearm_roll_link")
+    sink.spawn_object("box", "breakfast-cereal", forearm, allow_overlap=True)
+    sink.move_joints(right=start)
+    sink.arm_motion_planning = True
+    path = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+    assert sink.motion_planning_fallbacks == 1
+    assert path is not None and path[-1]["right"] == goal
