@@ -11,8 +11,10 @@ Measured and designed after the motion-planning reference note (OMPL 2.x + PyBul
   object: tens of microseconds, about the same with 6 or 50 bodies (the broadphase
   prunes); per-pair ``getClosestPoints`` grows with the bodies;
 - padding is by inflating the obstacles' primitives (``getContactPoints`` ignores a
-  positive margin); the held objects are not inflated and are dynamic (mass > 0), since
-  Bullet makes no contacts between two static bodies; the kitchen is not inflated;
+  positive margin): the objects' and the kitchen links' boxes are static inflated copies
+  (the kitchen URDF stays loaded for its names and joints but collides with nothing); the
+  held objects are not inflated and are dynamic (mass > 0), since Bullet makes no
+  contacts between two static bodies;
 - self-collision: the robot is loaded with ``URDF_USE_SELF_COLLISION |
   URDF_USE_SELF_COLLISION_EXCLUDE_PARENT`` and only the chain's *checked pairs* count
   (:meth:`CollisionModel.self_pairs`): a link that the chain moves against any link it
@@ -190,6 +192,13 @@ class CollisionModel:
             for i in range(pb.getNumJoints(body, physicsClientId=c)):
                 names[pb.getJointInfo(body, i, physicsClientId=c)[12].decode()] = i
             self.links[body] = names
+        # invariant: proxy[b] = (fixed body, link) for each inflated stand-in body b of a
+        # fixed body's link (padding > 0: the fixed bodies' box links are inflated copies,
+        # the URDF links themselves collide with nothing)
+        self.proxy: dict[int, tuple[int, int]] = {}
+        if padding > 0.0:
+            for body in self.fixed:
+                self._inflate_links(body)
         self.links_joints: dict[str, int] = {}  # the robot's movable joints by name
         for i in range(pb.getNumJoints(self.robot, physicsClientId=c)):
             info = pb.getJointInfo(self.robot, i, physicsClientId=c)
@@ -207,6 +216,38 @@ class CollisionModel:
         self._focus: frozenset[tuple[int, int]] | None = None
         # one reset: Bullet then tests the fixed robot against the fixed kitchen
         pb.resetBasePositionAndOrientation(self.robot, (0, 0, 0), (0, 0, 0, 1), physicsClientId=c)
+
+    def _inflate_links(self, body: int) -> None:
+        """Replace the collision boxes of ``body``'s links by static copies inflated by
+        the padding (a link with other shapes keeps its own, uninflated)."""
+        c = self._c
+        pad = self.padding
+        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+            shapes = pb.getCollisionShapeData(body, link, physicsClientId=c)
+            if not shapes or any(s[2] != pb.GEOM_BOX for s in shapes):
+                continue
+            shape = pb.createCollisionShapeArray(
+                [pb.GEOM_BOX] * len(shapes),
+                halfExtents=[[v / 2.0 + pad for v in s[3]] for s in shapes],
+                collisionFramePositions=[list(s[5]) for s in shapes],
+                collisionFrameOrientations=[list(s[6]) for s in shapes],
+                physicsClientId=c,
+            )
+            stand_in = int(pb.createMultiBody(0.0, shape, -1, physicsClientId=c))
+            pb.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=c)
+            self.proxy[stand_in] = (body, link)
+        self._place_proxies()
+
+    def _place_proxies(self) -> None:
+        """Put each inflated stand-in at its link's (inertial) frame."""
+        c = self._c
+        for stand_in, (body, link) in self.proxy.items():
+            if link < 0:
+                pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+            else:
+                ls = pb.getLinkState(body, link, computeForwardKinematics=1, physicsClientId=c)
+                pos, orn = ls[0], ls[1]
+            pb.resetBasePositionAndOrientation(stand_in, pos, orn, physicsClientId=c)
 
     @classmethod
     def from_world(cls, world: World, padding: float = PADDING) -> CollisionModel:
@@ -262,6 +303,7 @@ class CollisionModel:
             if movable:
                 values = [s[0] for s in pb.getJointStates(src, movable, physicsClientId=wc)]
                 pb.resetJointStatesMultiDof(dst, movable, [[v] for v in values], physicsClientId=c)
+        self._place_proxies()  # a drawer may have moved
         for body in self.objects.values():
             pb.removeBody(body, physicsClientId=c)
         self.objects.clear()
@@ -343,6 +385,7 @@ class CollisionModel:
         return frozenset(bodies), frozenset(links)
 
     def describe(self, body: int, link: int) -> str:
+        body, link = self.proxy.get(body, (body, link))
         if body in self.names:
             return self.names[body]
         for b, names in self.links.items():

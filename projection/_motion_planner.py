@@ -33,6 +33,12 @@ rejects is accepted when the exact geometry is clear: an arm that starts next to
 (it just placed it, it is about to grasp it) can leave and reach it, as MoveIt's start-state
 "jiggle" lets it.
 
+What counts as a collision for a chain's motion: a contact of a link the chain moves (or
+of an object its hand holds) with anything but its allowed contacts; self contacts of the
+checked pairs only (:meth:`CollisionModel.self_pairs`). The parts of the robot that stand
+still (the other arm, what it holds, the torso) are obstacles, but their own contacts are
+not this motion's. A held object may keep touching the robot links it touches at the start.
+
 Determinism: the same model state, query, seed and parameters give the same trajectory
 (the seed goes to ``ompl.util.RNG.setSeed`` right before the ``SimpleSetup`` is built;
 nothing else draws from OMPL's generators in between).
@@ -184,12 +190,15 @@ class _Checker:
         self.pairs = model.self_pairs(chain)
         self.allowed_bodies, self.allowed_links = model.allowed_bodies(allowed)
         self.held = [h for h in model.held.values() if h.link in chain.moving_links]
+        self.held_bodies = frozenset(h.body for h in self.held)
         for h in self.held:  # the held object rests in the gripper: no contacts there
             for link in chain.touch_links:
                 pb.setCollisionFilterPair(
                     model.robot, h.body, link, -1, 0, physicsClientId=model.client
                 )
         self.calls = 0
+        # (held body, robot link) contacts present at the start (tolerate_held_contacts)
+        self.held_touch: set[tuple[int, int]] = set()
 
     def _set(self, q: Q) -> None:
         m = self.model
@@ -203,7 +212,22 @@ class _Checker:
             pb.resetBasePositionAndOrientation(h.body, pos, orn, physicsClientId=c)
 
     def _allowed(self, body: int, link: int) -> bool:
+        body, link = self.model.proxy.get(body, (body, link))
         return body in self.allowed_bodies or body * 1000 + link in self.allowed_links
+
+    def tolerate_held_contacts(self, q: Q) -> None:
+        """Let each held object keep touching the robot links it touches at ``q`` (the
+        start): a carried bowl resting against its own upper arm, as the simplified links
+        lay them, is no collision with the world (MoveIt's touch links, taken from the
+        start)."""
+        m = self.model
+        c = m.client
+        self._set(q)
+        pb.performCollisionDetection(physicsClientId=c)
+        for h in self.held:
+            for p in pb.getContactPoints(bodyA=h.body, bodyB=m.robot, physicsClientId=c):
+                if p[8] < -CONTACT_TOLERANCE:
+                    self.held_touch.add((h.body, p[4]))
 
     def contacts(self, q: Q, first_only: bool = False) -> list[tuple[str, str]]:
         """The forbidden contacts at ``q`` as (moving part, what it touches) names."""
@@ -216,10 +240,15 @@ class _Checker:
         tol = -CONTACT_TOLERANCE
         out: list[tuple[str, str]] = []
         touch = self.chain.touch_links
+        moving = self.chain.moving_links
         for p in pb.getContactPoints(bodyA=robot, physicsClientId=c):
             if p[8] >= tol:
                 continue
             body, la, lb = p[2], p[3], p[4]
+            if body != robot and la not in moving and body not in self.held_bodies:
+                continue  # the rest of the robot stands still: its contacts are not ours
+            if (body, la) in self.held_touch:
+                continue
             if body == robot:
                 if (la, lb) not in self.pairs:
                     continue
@@ -378,6 +407,8 @@ class ArmMotionPlanner:
             )
         padded = _Checker(self.model, self.chain, allowed)
         exact = _Checker(self.verifier, self.chain, allowed)
+        for checker in (padded, exact):
+            checker.tolerate_held_contacts(a)
         for q, what in ((a, "start"), (b, "goal")):
             hits = exact.contacts(q)
             if hits:

@@ -346,3 +346,44 @@ def test_a_planning_failure_falls_back_to_the_router_and_is_counted(sink: World)
     path = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     assert sink.motion_planning_fallbacks == 1
     assert path is not None and path[-1]["right"] == goal
+
+
+def test_the_planning_model_inflates_the_kitchen_and_the_exact_one_does_not(sink: World) -> None:
+    import pybullet as pb
+
+    with (
+        CollisionModel.from_world(sink) as padded,
+        CollisionModel.from_world(sink, padding=0.0) as exact,
+    ):
+        assert exact.proxy == {}
+        kitchen = padded.fixed[0]
+        names = {i: n for n, i in padded.links[kitchen].items()}
+        inflated = {names[link]: b for b, (_k, link) in padded.proxy.items()}
+        assert kitchen_surface_in(inflated)
+        for name, stand_in in inflated.items():
+            lo, hi = sink.link_aabb(name)
+            plo, phi = pb.getAABB(stand_in, -1, physicsClientId=padded.client)
+            # Bullet's AABBs carry a small margin of their own: compare the growth
+            assert all(abs((a - b) - padded.padding) < 5e-3 for a, b in zip(lo, plo)), name
+            assert all(abs((b - a) - padded.padding) < 5e-3 for a, b in zip(hi, phi)), name
+
+
+def kitchen_surface_in(links: dict[str, int]) -> bool:
+    return kitchen.SINK_SURFACE in links and kitchen.ISLAND_SURFACE in links
+
+
+def test_contacts_of_the_robot_parts_that_do_not_move_are_not_the_motions(sink: World) -> None:
+    """An object against the left forearm does not block the right arm's motions (the
+    left arm stands still), but it does block the left arm's."""
+    sink.spawn_object("leaning", "cup", sink.link_pose("l_forearm_roll_link"), allow_overlap=True)
+    right = _planner(sink)
+    left_touch = [n for n in sink.link_names if n.startswith("l_gripper")]
+    left = ArmMotionPlanner.for_world(
+        sink, [f"l_{j}" for j in knowledge.ARM_JOINTS], "l_gripper_tool_frame", left_touch
+    )
+    try:
+        assert right.collisions(sink.arm_joints("right")) == []
+        assert any(y == "leaning" for _x, y in left.collisions(sink.arm_joints("left")))
+    finally:
+        right.close()
+        left.close()
