@@ -53,6 +53,7 @@ __all__ = [
 PADDING = 0.02
 #: Penetration (m) beyond which a contact counts (resting contacts report about -1 mm).
 CONTACT_TOLERANCE = 0.001
+_DIGITS = 4  # rounding (m, rad) of the world digest
 #: Random configurations sampled to find the self pairs that always touch.
 _SELF_SAMPLES = 200
 _ALWAYS = 0.95  # a pair touching in this fraction of the samples is never checked
@@ -209,6 +210,7 @@ class CollisionModel:
                 if name not in self.links_joints:
                     raise UnknownName("joint", name, self.links_joints)
         self.known_good = tuple(dict(k) for k in known_good)
+        self.digest: tuple[object, ...] = ()
         self.objects: dict[str, int] = {}
         self.held: dict[str, _Held] = {}
         self._self_pairs: dict[tuple[int, ...], frozenset[tuple[int, int]]] = {}
@@ -304,6 +306,12 @@ class CollisionModel:
                 values = [s[0] for s in pb.getJointStates(src, movable, physicsClientId=wc)]
                 pb.resetJointStatesMultiDof(dst, movable, [[v] for v in values], physicsClientId=c)
         self._place_proxies()  # a drawer may have moved
+        digest: list[object] = []
+        for src in src_bodies:
+            pos, orn = pb.getBasePositionAndOrientation(src, physicsClientId=wc)
+            n = pb.getNumJoints(src, physicsClientId=wc)
+            joints = [s[0] for s in pb.getJointStates(src, range(n), physicsClientId=wc)]
+            digest.append(tuple(round(v, _DIGITS) for v in (*pos, *orn, *joints)))
         for body in self.objects.values():
             pb.removeBody(body, physicsClientId=c)
         self.objects.clear()
@@ -314,6 +322,8 @@ class CollisionModel:
         for name, otype in world.objects.items():
             pose = world.object_pose(name)
             link = attachments.get(name)
+            place = tuple(round(v, _DIGITS) for v in (*pose.position, *pose.orientation))
+            digest.append((name, otype, link, place))
             held = link is not None and link in robot_links
             body = self._add_object(otype, (pose.position, pose.orientation), held)
             self.objects[name] = body
@@ -327,6 +337,10 @@ class CollisionModel:
                 ip, iq = pb.invertTransform(ls[4], ls[5])
                 gp, gq = pb.multiplyTransforms(ip, iq, pose.position, pose.orientation)
                 self.held[name] = _Held(body, index, (tuple(gp), tuple(gq)))
+
+        # invariant: equal digests <=> the same world up to rounding (robot, kitchen,
+        # objects, what is held); plan caches key on it
+        self.digest = (self.padding, tuple(digest))
 
     def _add_object(self, otype: str, tf: Tf, held: bool) -> int:
         c = self._c

@@ -49,6 +49,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
+from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
@@ -63,6 +64,7 @@ from projection._collision_model import CONTACT_TOLERANCE, ArmChain, CollisionMo
 
 __all__ = [
     "ACCELERATION",
+    "CACHE_SIZE",
     "ESCAPE",
     "MAX_CHECKS",
     "RESOLUTION",
@@ -91,6 +93,10 @@ ESCAPE = 0.2
 #: A joint configuration: a sequence of floats or a 1-d array.
 Q = Sequence[float] | np.ndarray
 Check = Callable[[Q], bool]
+_Cached = tuple[np.ndarray, bool] | ManipulationPoseUnreachable
+#: Plans an :class:`ArmMotionPlanner` remembers (imagined runs repeat the same motions).
+CACHE_SIZE = 256
+_DIGITS = 4  # rounding (m, rad) of the cache keys, as of the model digest
 
 
 @dataclass(frozen=True)
@@ -301,6 +307,11 @@ class ArmMotionPlanner:
                 raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
         self.model = model
         self.verifier = verifier
+        # (model digest, start, goal, seed, allowed, budget) -> (vertices, sampled) or the
+        # budget failure; least recently used first. A hit's path is verified again in
+        # the exact geometry of the world as it is now (the key is rounded).
+        self._cache: OrderedDict[object, _Cached] = OrderedDict()
+        self.cache_hits = 0
         self.chain = chain
         self.resolution = resolution
         self.verify_resolution = verify_resolution
@@ -430,6 +441,55 @@ class ArmMotionPlanner:
             near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
             return bool(near and exact.valid(q))
 
+        key = (
+            self.model.digest,
+            tuple(np.round(a, _DIGITS).tolist()),
+            tuple(np.round(b, _DIGITS).tolist()),
+            seed,
+            allowed,
+            max_checks,
+        )
+        cached = self._cache.get(key)
+        if isinstance(cached, ManipulationPoseUnreachable):
+            self.cache_hits += 1
+            raise ManipulationPoseUnreachable(str(cached.message), **cached.details)
+        if cached is not None:
+            vertices = cached[0].copy()
+            vertices[0], vertices[-1] = a, b
+            if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
+                self.cache_hits += 1
+                self._cache.move_to_end(key)
+                positions, times = time_parameterise(
+                    vertices, self.chain.max_velocity, self.acceleration, self.resolution
+                )
+                positions[0], positions[-1] = a, b
+                return ArmTrajectory(self.chain.joints, positions, times, cached[1], exact.calls)
+        try:
+            trajectory, vertices = self._plan(a, b, check, padded, exact, seed, max_checks, timeout)
+        except ManipulationPoseUnreachable as e:
+            if e.details.get("reason") == "budget spent":  # deterministic: remembered
+                self._remember(key, e)
+            raise
+        self._remember(key, (vertices, trajectory.planned))
+        return trajectory
+
+    def _remember(self, key: object, value: _Cached) -> None:
+        self._cache[key] = value
+        self._cache.move_to_end(key)
+        while len(self._cache) > CACHE_SIZE:
+            self._cache.popitem(last=False)
+
+    def _plan(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        check: Check,
+        padded: _Checker,
+        exact: _Checker,
+        seed: int,
+        max_checks: int,
+        timeout: float,
+    ) -> tuple[ArmTrajectory, np.ndarray]:
         resolution = self.resolution
         for attempt in range(2):
             vertices = self._straight(a, b, check, resolution)
@@ -443,8 +503,10 @@ class ArmMotionPlanner:
                     vertices, self.chain.max_velocity, self.acceleration, resolution
                 )
                 positions[0], positions[-1] = a, b
-                return ArmTrajectory(
-                    self.chain.joints, positions, times, planned, padded.calls + exact.calls
+                calls = padded.calls + exact.calls
+                return (
+                    ArmTrajectory(self.chain.joints, positions, times, planned, calls),
+                    vertices,
                 )
             log.info(
                 "arm path grazes an obstacle at resolution %.3f rad (attempt %d)",

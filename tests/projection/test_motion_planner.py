@@ -387,3 +387,29 @@ def test_contacts_of_the_robot_parts_that_do_not_move_are_not_the_motions(sink: 
     finally:
         right.close()
         left.close()
+
+
+def test_plans_are_remembered_per_world_state(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    try:
+        first = planner.plan(start, goal, seed=3)
+        again = planner.plan(start, goal, seed=3)
+        assert planner.cache_hits == 1
+        assert np.array_equal(first.positions, again.positions)
+        assert again.checks < first.checks  # only the re-verification
+        # the cereal moved: another world, planned again
+        moved = sink.object_pose("cereal-9")
+        x, y, z = moved.position
+        sink.set_object_pose("cereal-9", Pose((x, y + 0.05, z), moved.orientation))
+        planner.sync(sink)
+        planner.plan(start, goal, seed=3)
+        assert planner.cache_hits == 1
+        # the same budget failure is not searched for twice
+        with pytest.raises(ManipulationPoseUnreachable, match="budget"):
+            planner.plan(start, goal, seed=4, max_checks=30)
+        with pytest.raises(ManipulationPoseUnreachable, match="budget"):
+            planner.plan(start, goal, seed=4, max_checks=30)
+        assert planner.cache_hits == 2
+    finally:
+        planner.close()
