@@ -12,7 +12,12 @@ contact check (``swept_objects``, the 2 mm tolerance of ``World.robot_collisions
 Then the cost of one collision check (planner: padded model; world: ``move_joints`` +
 ``robot_in_collision``) and of building / syncing a planner.
 
-    python bench/motion_planning.py [--seeds 3]
+With ``--transport``: one bowl transport (CRAM's table setting with the bowl only),
+projected (teleporting robot, swept probes in the world) and on the simulated real
+robot (its controller in the true world, probes in the belief), with
+``World.arm_motion_planning`` off (today) and on, twice each (the first run warms up).
+
+    python bench/motion_planning.py [--seeds 3] [--transport]
 """
 
 from __future__ import annotations
@@ -61,7 +66,13 @@ def pct(xs: list[float], q: float) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--seeds", type=int, default=3)
-    seeds = parser.parse_args().seeds
+    parser.add_argument("--transport", action="store_true")
+    args = parser.parse_args()
+    seeds = args.seeds
+    if args.transport:
+        print("one bowl transport, wall time (MockClock):")
+        for flag in (False, True, False, True):
+            transport(flag)
     true, world = make_world_pair(0, belief_objects="exact")
     true.close()
     world.park_arms("carry")
@@ -179,6 +190,47 @@ def main() -> None:
     for p in planners.values():
         p.close()
     world.close()
+
+
+def transport(flag: bool) -> None:
+    import cpl
+    import plans
+    from cpl.testing import MockClock
+    from projection import FaultProfile, with_projected_robot, with_real_robot
+
+    world = World(seed=0)
+    world.arm_motion_planning = flag
+
+    async def projected() -> dict[str, plans.ObjectOutcome]:
+        async with with_projected_robot(world):
+            return await plans.table_setting(world, ("bowl",), False, 1)
+
+    t0 = time.perf_counter()
+    out = cpl.run(projected, clock=MockClock())["bowl"]
+    dt = time.perf_counter() - t0
+    hits = sum(p.cache_hits for p in world._arm_planners.values())
+    print(
+        f"  projected  planning={flag!s:5}: {dt:6.2f} s  success {out.success}  "
+        f"fallbacks {world.motion_planning_fallbacks}  cache hits {hits}"
+    )
+    world.close()
+    true, belief = make_world_pair(0, objects={})
+    true.arm_motion_planning = belief.arm_motion_planning = flag
+
+    async def real() -> dict[str, plans.ObjectOutcome]:
+        async with with_real_robot(true, belief, FaultProfile(seed=1)):
+            return await plans.table_setting(true, ("bowl",), False, 1)
+
+    t0 = time.perf_counter()
+    out = cpl.run(real, clock=MockClock())["bowl"]
+    dt = time.perf_counter() - t0
+    print(
+        f"  real robot planning={flag!s:5}: {dt:6.2f} s  success {out.success}  "
+        f"fallbacks true {true.motion_planning_fallbacks} belief "
+        f"{belief.motion_planning_fallbacks}"
+    )
+    true.close()
+    belief.close()
 
 
 def _at_goal(world: World, arm: str, goal: tuple[float, ...], free: set[str]) -> set[str]:

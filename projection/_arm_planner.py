@@ -5,7 +5,12 @@ joint space when that line sweeps through a free object (:func:`reroute_cartesia
 a configuration move (park, carry) is routed around free objects (:func:`arm_path`).
 The goal configuration itself is the one the belief world's IK imagined
 (:func:`imagined_goal`), or a collision-aware choice among torso heights
-(:func:`clear_ik`). Projection teleports, so plans never see these paths."""
+(:func:`clear_ik`). Projection teleports, so plans never see these paths.
+
+With ``World.arm_motion_planning`` on (off by default, issue 26 in progress), the
+configuration moves and the reroutes of :func:`arm_path` are planned by OMPL instead
+(:func:`planned_arm_path`, :mod:`projection._motion_planner`) against the kitchen, the
+robot itself and every object, with the router as the logged and counted fallback."""
 
 from __future__ import annotations
 
@@ -302,7 +307,8 @@ def arm_path(
     object (the hand next to an object after a failed grip) may touch that object, and
     the final descent may touch what the goal touches (a pregrasp at its object).
     Nothing clear: straight anyway (the arm then pushes what it meets, as an arm without
-    a planner would; ``fallback=False``: None). A real PR2 plans collision-free arm paths;
+    a planner would; ``fallback=False``: None). With ``world.arm_motion_planning`` the
+    path is :func:`planned_arm_path` first. A real PR2 plans collision-free arm paths;
     projection teleports, so plans never see this. Leaves the arms wherever the last check
     put them (the caller resets)."""
     straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
