@@ -19,7 +19,7 @@ import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pybullet as pb
@@ -27,10 +27,12 @@ import pybullet as pb
 from executive import Pose
 from executive.failures import ManipulationPoseUnreachable
 from executive.knowledge import ARM_JOINTS, ARM_PREFIX, tool_frame
-from projection._motion_planner import ArmMotionPlanner
 from projection._real_body import ARM_JOINT_VELOCITY, TORSO_VELOCITY, _joint_indices
 from projection._trajectories import along_timed
 from projection._world import World
+
+if TYPE_CHECKING:  # OMPL is imported on the first planned motion only (~75 ms)
+    from projection._motion_planner import ArmMotionPlanner
 
 __all__ = [
     "CARTESIAN_STEP",
@@ -333,6 +335,8 @@ def arm_path(
 def _planner(world: World, arm: str) -> ArmMotionPlanner:
     planner = world._arm_planners.get(arm)
     if planner is None:
+        from projection._motion_planner import ArmMotionPlanner
+
         prefix = ARM_PREFIX[arm]
         planner = ArmMotionPlanner.for_world(
             world,
