@@ -5,15 +5,21 @@ joint space when that line sweeps through a free object (:func:`reroute_cartesia
 a configuration move (park, carry) is routed around free objects (:func:`arm_path`).
 The goal configuration itself is the one the belief world's IK imagined
 (:func:`imagined_goal`), or a collision-aware choice among torso heights
-(:func:`clear_ik`). Projection teleports, so plans never see these paths."""
+(:func:`clear_ik`). Projection teleports, so plans never see these paths.
+
+With ``World.arm_motion_planning`` on (off by default, issue 26 in progress), the
+configuration moves and the reroutes of :func:`arm_path` are planned by OMPL instead
+(:func:`planned_arm_path`, :mod:`projection._motion_planner`) against the kitchen, the
+robot itself and every object, with the router as the logged and counted fallback."""
 
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pybullet as pb
@@ -24,6 +30,9 @@ from executive.knowledge import ARM_JOINTS, ARM_PREFIX, tool_frame
 from projection._real_body import ARM_JOINT_VELOCITY, TORSO_VELOCITY, _joint_indices
 from projection._trajectories import along_timed
 from projection._world import World
+
+if TYPE_CHECKING:  # OMPL is imported on the first planned motion only (~75 ms)
+    from projection._motion_planner import ArmMotionPlanner
 
 __all__ = [
     "CARTESIAN_STEP",
@@ -38,6 +47,7 @@ __all__ = [
     "controller_path",
     "imagined_goal",
     "leg_seconds",
+    "planned_arm_path",
     "reroute_cartesian",
     "swept_objects",
     "touched_objects",
@@ -55,6 +65,8 @@ SWEEP_STEP = (0.08, 0.02)
 #: through when the straight path would hit a free object.
 RAISED_SHOULDER_LIFT = -0.45
 RAISED_ELBOW_FLEX = -1.9
+
+_log = logging.getLogger(__name__)
 
 ArmConfig = dict[str, tuple[float, ...]]
 
@@ -297,10 +309,15 @@ def arm_path(
     object (the hand next to an object after a failed grip) may touch that object, and
     the final descent may touch what the goal touches (a pregrasp at its object).
     Nothing clear: straight anyway (the arm then pushes what it meets, as an arm without
-    a planner would; ``fallback=False``: None). A real PR2 plans collision-free arm paths;
+    a planner would; ``fallback=False``: None). With ``world.arm_motion_planning`` the
+    path is :func:`planned_arm_path` first. A real PR2 plans collision-free arm paths;
     projection teleports, so plans never see this. Leaves the arms wherever the last check
     put them (the caller resets)."""
     straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
+    if world.arm_motion_planning:
+        planned = planned_arm_path(world, arms, start, goal)
+        if planned is not None:
+            return planned
     if not _path_hits(world, arms, start, goal):
         return straight
     router = _ArmRouter.around(world, arms, start, goal)
@@ -313,6 +330,59 @@ def arm_path(
             if router.clear(path, lifts_first, descends_last):
                 return path
     return straight if fallback else None
+
+
+def _planner(world: World, arm: str) -> ArmMotionPlanner:
+    planner = world._arm_planners.get(arm)
+    if planner is None:
+        from projection._motion_planner import ArmMotionPlanner
+
+        prefix = ARM_PREFIX[arm]
+        planner = ArmMotionPlanner.for_world(
+            world,
+            [f"{prefix}_{j}" for j in ARM_JOINTS],
+            tool_frame(arm),
+            [n for n in world.link_names if n.startswith(f"{prefix}_gripper")],
+        )
+        world._arm_planners[arm] = planner
+    return planner
+
+
+def planned_arm_path(
+    world: World, arms: Sequence[str], start: ArmConfig, goal: ArmConfig
+) -> list[ArmConfig] | None:
+    """The arms' path planned by OMPL (:class:`ArmMotionPlanner`) in a copy of ``world``
+    (the kitchen, the robot itself, every object, what the hands hold), one arm after the
+    other (the second plans with the first at its goal). The fingers may touch the
+    objects they touch at the start or the goal (the object just released, the one
+    reached for); no other contact. None when an arm has no path (its start or goal in
+    collision, the budget spent): logged and counted in
+    ``world.motion_planning_fallbacks``, and the caller routes as before. Leaves the arms
+    at the goal (the caller resets)."""
+    free = {n for n in world.objects if n not in world.attachments}
+    world.move_joints(**{a: start[a] for a in arms})
+    touching = touched_objects(world, free)
+    world.move_joints(**{a: goal[a] for a in arms})
+    touching |= touched_objects(world, free)
+    world.move_joints(**{a: start[a] for a in arms})
+    path: list[ArmConfig] = [{a: start[a] for a in arms}]
+    for arm in arms:
+        planner = _planner(world, arm)
+        planner.sync(world)
+        try:
+            trajectory = planner.plan(start[arm], goal[arm], seed=1, allowed_contacts=touching)
+        except ManipulationPoseUnreachable as e:
+            world.motion_planning_fallbacks += 1
+            _log.info("no planned path for the %s arm (%s): the controller routes it", arm, e)
+            return None
+        here = dict(path[-1])
+        for q in trajectory.positions[1:]:
+            here = {**here, arm: tuple(float(v) for v in q)}
+            path.append(here)
+        world.move_joints(**{arm: goal[arm]})
+    if len(path) == 1:
+        path.append(dict(path[0]))
+    return path
 
 
 @dataclass

@@ -12,7 +12,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 import pybullet as pb
@@ -196,6 +196,16 @@ class WorldBase:
         self._attached: dict[str, tuple[str, _Tf]] = {}
         self._base: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._closed = False
+        #: Whether the simulated controller (``projection._arm_planner.arm_path``) plans
+        #: free arm motions with OMPL (``projection._motion_planner``) rather than the
+        #: straight line and its raised-via detours. Off by default (issue 26 in progress).
+        self.arm_motion_planning = False
+        #: Planned motions that fell back to the old router (OMPL found no path, or the
+        #: start or goal was in collision), each logged.
+        self.motion_planning_fallbacks = 0
+        # arm -> its ArmMotionPlanner (own PyBullet clients), built on first use, closed
+        # with the world
+        self._arm_planners: dict[str, Any] = {}
         # initial state: one base reset (so the fixed robot is tested against the fixed
         # kitchen from the start), arms parked, torso default, grippers open, head forward
         self._reset_base(0.0, 0.0, 0.0)
@@ -210,6 +220,9 @@ class WorldBase:
         if self._closed:
             return
         self._closed = True
+        for planner in self._arm_planners.values():
+            planner.close()
+        self._arm_planners.clear()
         for cid in (self._side, self._c):
             if cid >= 0:
                 try:

@@ -1,0 +1,633 @@
+"""Joint-space arm motion planning: OMPL's RRTConnect against a :class:`CollisionModel`,
+shortcut, verified densely against the exact geometry and time-parameterised with the
+joint velocity (and an acceleration) limit.
+
+A query (:meth:`ArmMotionPlanner.plan`) goes, as the motion-planning reference note
+measured it on this machine:
+
+1. bad input (wrong length, not finite, outside the joint limits, unknown allowed
+   contacts): :class:`ValueError`/:class:`LookupError` before anything is checked;
+2. start or goal in collision in the exact geometry: :class:`ManipulationPoseUnreachable`
+   naming the contacts, without planning;
+3. the goal already reached: a one-state trajectory; the straight joint-space line when
+   it is clear (pybullet-planning's ``direct_path``): no sampling at all;
+4. otherwise RRTConnect (single-threaded: PRM deadlocks with a Python checker) on a fresh
+   ``SimpleSetup`` seeded right before it is built, stopped by a budget of validity checks
+   (deterministic) with a wall-clock timeout as a safety net only; then rope shortcutting
+   and vertex reduction (deterministic; time-bounded simplification is not);
+5. the path checked every :data:`VERIFY_RESOLUTION` rad in the exact geometry (the planning
+   model's obstacles are inflated by :data:`projection._collision_model.PADDING` so that
+   grazes between checked states are caught); a graze: planned again at half the
+   resolution, then a failure;
+6. timed: each straight segment between the path's vertices gets a trapezoidal velocity
+   profile, from rest to rest, synchronised over the joints so that the arm moves exactly
+   along the checked line.
+
+Deliberate difference from MoveIt (TOTG time parameterisation): the arm stops at each
+vertex of the shortcut path instead of blending the corners, so the swept configurations
+are exactly the checked ones (a blend cuts corners by up to TOTG's path tolerance,
+unchecked); shortcutting leaves few vertices, so the cost is a few short stops.
+
+Near the start and the goal (within :data:`ESCAPE` rad) a configuration the padding
+rejects is accepted when the exact geometry is clear: an arm that starts next to an object
+(it just placed it, it is about to grasp it) can leave and reach it, as MoveIt's start-state
+"jiggle" lets it.
+
+What counts as a collision for a chain's motion: a contact of a link the chain moves (or
+of an object its hand holds) with anything but its allowed contacts; self contacts of the
+checked pairs only (:meth:`CollisionModel.self_pairs`). The parts of the robot that stand
+still (the other arm, what it holds, the torso) are obstacles, but their own contacts are
+not this motion's. A held object may keep touching the robot links it touches at the start.
+
+Determinism: the same model state, query, seed and parameters give the same trajectory
+(the seed goes to ``ompl.util.RNG.setSeed`` right before the ``SimpleSetup`` is built;
+nothing else draws from OMPL's generators in between).
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from collections import OrderedDict
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from executive.failures import ManipulationPoseUnreachable
+from projection._collision_model import CONTACT_TOLERANCE, ArmChain, CollisionModel
+
+__all__ = [
+    "ACCELERATION",
+    "CACHE_SIZE",
+    "ESCAPE",
+    "MAX_CHECKS",
+    "RESOLUTION",
+    "TIMEOUT",
+    "VERIFY_RESOLUTION",
+    "ArmMotionPlanner",
+    "ArmTrajectory",
+    "time_parameterise",
+]
+
+log = logging.getLogger(__name__)
+
+#: Largest joint-space (L2, rad) step between two checked states while planning.
+RESOLUTION = 0.05
+#: Step (rad) at which a finished path is verified against the exact geometry.
+VERIFY_RESOLUTION = 0.01
+#: Validity checks a plan may spend (the deterministic budget).
+MAX_CHECKS = 20_000
+#: Wall-clock safety net (s) of one planning call; hitting it is a logged failure.
+TIMEOUT = 5.0
+#: Joint acceleration limit (rad/s^2) of the time parameterisation (URDFs carry none).
+ACCELERATION = 2.0
+#: Distance (rad, L2) from the start or goal within which the exact geometry decides.
+ESCAPE = 0.2
+
+#: A joint configuration: a sequence of floats or a 1-d array.
+Q = Sequence[float] | np.ndarray
+Check = Callable[[Q], bool]
+_Cached = tuple[np.ndarray, bool] | ManipulationPoseUnreachable
+#: Plans an :class:`ArmMotionPlanner` remembers (imagined runs repeat the same motions).
+CACHE_SIZE = 256
+_DIGITS = 4  # rounding (m, rad) of the cache keys, as of the model digest
+
+
+@dataclass(frozen=True)
+class ArmTrajectory:
+    """A timed joint path of one arm chain.
+
+    ``positions`` (N x joints): consecutive rows at most the planning resolution apart,
+    joined by straight joint-space segments; the first row is the start, the last the goal,
+    exactly. ``times`` (N,): seconds from the start, non-decreasing, 0 first. ``planned``:
+    whether a sampling planner ran (False: the straight line or nothing). ``checks``: the
+    validity checks spent (planning, shortcutting and verifying)."""
+
+    joints: tuple[str, ...]
+    positions: np.ndarray
+    times: np.ndarray
+    planned: bool
+    checks: int
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def at(self, t: float) -> tuple[float, ...]:
+        """The configuration ``t`` seconds after the start (clamped to the trajectory)."""
+        return tuple(
+            float(np.interp(t, self.times, self.positions[:, j])) for j in range(len(self.joints))
+        )
+
+
+def _segment_times(d: np.ndarray, vmax: np.ndarray, amax: float, u: np.ndarray) -> np.ndarray:
+    """Times at path fractions ``u`` of a rest-to-rest trapezoidal profile along the joint
+    displacement ``d`` (the slowest joint at its velocity / acceleration limit)."""
+    moving = np.abs(d) > 1e-12
+    if not moving.any():
+        return np.zeros_like(u)
+    v = float(np.min(vmax[moving] / np.abs(d[moving])))  # max du/dt
+    a = float(np.min(amax / np.abs(d[moving])))  # max d2u/dt2
+    if v * v / a >= 1.0:  # triangle: never reaches v
+        ta = math.sqrt(1.0 / a)
+        total = 2.0 * ta
+        ua = 0.5
+    else:
+        ta = v / a
+        total = 1.0 / v + v / a
+        ua = 0.5 * v * ta
+    t = np.empty_like(u)
+    first = u <= ua
+    last = u >= 1.0 - ua
+    t[first] = np.sqrt(2.0 * u[first] / a)
+    t[last] = total - np.sqrt(np.maximum(0.0, 2.0 * (1.0 - u[last]) / a))
+    mid = ~first & ~last
+    t[mid] = ta + (u[mid] - ua) / v
+    return t
+
+
+def time_parameterise(
+    vertices: np.ndarray, max_velocity: Sequence[float], acceleration: float, step: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Dense positions (at most ``step`` apart, L2, the vertices included) and their
+    times along the polyline ``vertices``: on each segment a trapezoidal velocity profile
+    from rest to rest, synchronised over the joints, no joint faster than its
+    ``max_velocity`` nor accelerating more than ``acceleration``."""
+    vmax = np.asarray(max_velocity, dtype=float)
+    rows = [vertices[0]]
+    times = [0.0]
+    t0 = 0.0
+    for a, b in itertools.pairwise(vertices):
+        d = b - a
+        k = max(1, math.ceil(float(np.linalg.norm(d)) / step))
+        u = np.arange(1, k + 1, dtype=float) / k
+        ts = _segment_times(d, vmax, acceleration, u)
+        for j in range(k):
+            rows.append(b if j == k - 1 else a + u[j] * d)
+            times.append(t0 + float(ts[j]))
+        t0 = times[-1]
+    return np.array(rows), np.array(times)
+
+
+def _dense(vertices: np.ndarray, step: float) -> Iterable[np.ndarray]:
+    """The states along the polyline at most ``step`` apart (L2), endpoints included."""
+    yield vertices[0]
+    for a, b in itertools.pairwise(vertices):
+        k = max(1, math.ceil(float(np.linalg.norm(b - a)) / step))
+        for j in range(1, k + 1):
+            yield b if j == k else a + (j / k) * (b - a)
+
+
+class _Checker:
+    """Collision checks of one chain in one model, with allowed contacts: the chain's
+    touch links and the held objects may touch the allowed objects and fixed-body links;
+    nothing else may touch anything but its own checked-pair exceptions."""
+
+    def __init__(self, model: CollisionModel, chain: ArmChain, allowed: Iterable[str]) -> None:
+        self.model = model
+        self.chain = chain
+        model.focus(chain)
+        self.pairs = model.self_pairs(chain)
+        self.allowed_bodies, self.allowed_links = model.allowed_bodies(allowed)
+        self.held = [h for h in model.held.values() if h.link in chain.moving_links]
+        self.held_bodies = frozenset(h.body for h in self.held)
+        for h in self.held:  # the held object rests in the gripper: no contacts there
+            for link in chain.touch_links:
+                pb.setCollisionFilterPair(
+                    model.robot, h.body, link, -1, 0, physicsClientId=model.client
+                )
+        self.calls = 0
+        # (held body, robot link) contacts present at the start (tolerate_held_contacts)
+        self.held_touch: set[tuple[int, int]] = set()
+
+    def _set(self, q: Q) -> None:
+        m = self.model
+        c = m.client
+        pb.resetJointStatesMultiDof(
+            m.robot, self.chain.indices, [[float(v)] for v in q], physicsClientId=c
+        )
+        for h in self.held:
+            ls = pb.getLinkState(m.robot, h.link, computeForwardKinematics=1, physicsClientId=c)
+            pos, orn = pb.multiplyTransforms(ls[4], ls[5], *h.grasp)
+            pb.resetBasePositionAndOrientation(h.body, pos, orn, physicsClientId=c)
+
+    def _allowed(self, body: int, link: int) -> bool:
+        body, link = self.model.proxy.get(body, (body, link))
+        return body in self.allowed_bodies or body * 1000 + link in self.allowed_links
+
+    def tolerate_held_contacts(self, q: Q) -> None:
+        """Let each held object keep touching the robot links it touches at ``q`` (the
+        start): a carried bowl resting against its own upper arm, as the simplified links
+        lay them, is no collision with the world (MoveIt's touch links, taken from the
+        start)."""
+        m = self.model
+        c = m.client
+        self._set(q)
+        pb.performCollisionDetection(physicsClientId=c)
+        for h in self.held:
+            for p in pb.getContactPoints(bodyA=h.body, bodyB=m.robot, physicsClientId=c):
+                if p[8] < -CONTACT_TOLERANCE:
+                    self.held_touch.add((h.body, p[4]))
+
+    def contacts(self, q: Q, first_only: bool = False) -> list[tuple[str, str]]:
+        """The forbidden contacts at ``q`` as (moving part, what it touches) names."""
+        self.calls += 1
+        m = self.model
+        c = m.client
+        robot = m.robot
+        self._set(q)
+        pb.performCollisionDetection(physicsClientId=c)
+        tol = -CONTACT_TOLERANCE
+        out: list[tuple[str, str]] = []
+        touch = self.chain.touch_links
+        moving = self.chain.moving_links
+        for p in pb.getContactPoints(bodyA=robot, physicsClientId=c):
+            if p[8] >= tol:
+                continue
+            body, la, lb = p[2], p[3], p[4]
+            if body != robot and la not in moving and body not in self.held_bodies:
+                continue  # the rest of the robot stands still: its contacts are not ours
+            if (body, la) in self.held_touch:
+                continue
+            if body == robot:
+                if (la, lb) not in self.pairs:
+                    continue
+            elif la in touch and self._allowed(body, lb):
+                continue
+            out.append((m.describe(robot, la), m.describe(body, lb)))
+            if first_only:
+                return out
+        for h in self.held:
+            for p in pb.getContactPoints(bodyA=h.body, physicsClientId=c):
+                if p[8] >= tol or p[2] == robot:  # robot contacts were reported above
+                    continue
+                if self._allowed(p[2], p[4]):
+                    continue
+                out.append((m.describe(h.body, -1), m.describe(p[2], p[4])))
+                if first_only:
+                    return out
+        return out
+
+    def valid(self, q: Q) -> bool:
+        return not self.contacts(q, first_only=True)
+
+
+class ArmMotionPlanner:
+    """Plans one arm chain's motions in a padded :class:`CollisionModel` (``model``) and
+    verifies them in an exact one (``verifier``, padding 0), both copies of the same
+    world (see the module docstring). ``ArmMotionPlanner.for_world(world, chain_spec)``
+    builds both; the caller closes them (:meth:`close`)."""
+
+    def __init__(
+        self,
+        model: CollisionModel,
+        verifier: CollisionModel,
+        chain: ArmChain,
+        *,
+        resolution: float = RESOLUTION,
+        verify_resolution: float = VERIFY_RESOLUTION,
+        acceleration: float = ACCELERATION,
+    ) -> None:
+        if verifier.padding != 0.0:
+            raise ValueError(
+                f"the verifier checks the exact geometry: padding 0, got {verifier.padding}"
+            )
+        for name, v in (
+            ("resolution", resolution),
+            ("verify_resolution", verify_resolution),
+            ("acceleration", acceleration),
+        ):
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+        self.model = model
+        self.verifier = verifier
+        # (model digest, start, goal, seed, allowed, budget) -> (vertices, sampled) or the
+        # budget failure; least recently used first. A hit's path is verified again in
+        # the exact geometry of the world as it is now (the key is rounded).
+        self._cache: OrderedDict[object, _Cached] = OrderedDict()
+        self.cache_hits = 0
+        self.chain = chain
+        self.resolution = resolution
+        self.verify_resolution = verify_resolution
+        self.acceleration = acceleration
+
+    @classmethod
+    def for_world(
+        cls,
+        world: object,
+        joints: Sequence[str],
+        tool_link: str,
+        touch_links: Iterable[str],
+        **kwargs: float,
+    ) -> ArmMotionPlanner:
+        """Both models copied from ``world`` (a :class:`projection.World`), the chain
+        read from its robot by name."""
+        from projection._world import World
+
+        if not isinstance(world, World):
+            raise TypeError(f"expected a projection World, got {type(world).__name__}")
+        touch = tuple(touch_links)
+        model = CollisionModel.from_world(world)
+        try:
+            verifier = CollisionModel.from_world(world, padding=0.0)
+        except BaseException:
+            model.close()
+            raise
+        try:
+            return cls(model, verifier, model.chain(joints, tool_link, touch), **kwargs)
+        except BaseException:
+            model.close()
+            verifier.close()
+            raise
+
+    def close(self) -> None:
+        self.model.close()
+        self.verifier.close()
+
+    def sync(self, world: object) -> None:
+        """Copy ``world`` into both models again (objects moved, grasped, released)."""
+        from projection._world import World
+
+        if not isinstance(world, World):
+            raise TypeError(f"expected a projection World, got {type(world).__name__}")
+        self.model.sync(world)
+        self.verifier.sync(world)
+
+    # ------------------------------------------------------------------ input
+    def _config(self, q: Q, what: str) -> np.ndarray:
+        chain = self.chain
+        try:
+            arr = np.array([float(v) for v in q], dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} must be a sequence of numbers, got {q!r}") from None
+        if arr.shape != (len(chain.joints),):
+            raise ValueError(
+                f"{what} needs {len(chain.joints)} values ({', '.join(chain.joints)}), "
+                f"got {arr.size}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{what} must be finite, got {arr.tolist()}")
+        for j, (v, lo, hi, cont) in enumerate(zip(arr, chain.lower, chain.upper, chain.continuous)):
+            if cont:
+                continue
+            if not lo - 1e-6 <= v <= hi + 1e-6:
+                raise ValueError(f"{what}: {chain.joints[j]} = {v:.4f} outside [{lo}, {hi}]")
+            arr[j] = min(max(v, lo), hi)
+        return arr
+
+    def collisions(self, q: Q, allowed_contacts: Iterable[str] = ()) -> list[tuple[str, str]]:
+        """The forbidden contacts (moving part, what it touches) at ``q`` in the exact
+        geometry; the model is left at ``q``."""
+        arr = self._config(q, "configuration")
+        return _Checker(self.verifier, self.chain, allowed_contacts).contacts(arr)
+
+    # ------------------------------------------------------------------ queries
+    def plan(
+        self,
+        start: Q,
+        goal: Q,
+        *,
+        seed: int = 1,
+        allowed_contacts: Iterable[str] = (),
+        max_checks: int = MAX_CHECKS,
+        timeout: float = TIMEOUT,
+    ) -> ArmTrajectory:
+        """A collision-free timed path from ``start`` to ``goal`` (see the module
+        docstring). ``allowed_contacts``: object names and fixed-body link names the touch
+        links and held objects may touch on the way (a free motion allows none).
+        ``seed`` >= 0 (OMPL replaces 0 by 1, so it gets ``seed + 1``). No path:
+        :class:`ManipulationPoseUnreachable` (``reason`` names why)."""
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+        if isinstance(max_checks, bool) or not isinstance(max_checks, int) or max_checks < 1:
+            raise ValueError(f"max_checks must be an int >= 1, got {max_checks!r}")
+        if not (math.isfinite(timeout) and timeout > 0.0):
+            raise ValueError(f"timeout must be a finite number of seconds > 0, got {timeout!r}")
+        a = self._config(start, "start")
+        b = self._config(goal, "goal")
+        allowed = frozenset(allowed_contacts) if not isinstance(allowed_contacts, str) else None
+        if allowed is None:
+            raise TypeError(
+                f"allowed_contacts is a set of names, not the string {allowed_contacts!r}"
+            )
+        padded = _Checker(self.model, self.chain, allowed)
+        exact = _Checker(self.verifier, self.chain, allowed)
+        for checker in (padded, exact):
+            checker.tolerate_held_contacts(a)
+        for q, what in ((a, "start"), (b, "goal")):
+            hits = exact.contacts(q)
+            if hits:
+                raise ManipulationPoseUnreachable(
+                    f"arm {what} configuration in collision: "
+                    + ", ".join(f"{x} touches {y}" for x, y in sorted(set(hits))),
+                    reason=f"{what} in collision",
+                    contacts=tuple(sorted(set(hits))),
+                )
+        if float(np.max(np.abs(b - a))) < 1e-9:
+            return ArmTrajectory(
+                self.chain.joints, b[None, :].copy(), np.zeros(1), False, exact.calls
+            )
+
+        def check(q: Q) -> bool:
+            if padded.valid(q):
+                return True
+            v = np.asarray(q)
+            near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
+            return bool(near and exact.valid(q))
+
+        key = (
+            self.model.digest,
+            tuple(np.round(a, _DIGITS).tolist()),
+            tuple(np.round(b, _DIGITS).tolist()),
+            seed,
+            allowed,
+            max_checks,
+        )
+        cached = self._cache.get(key)
+        if isinstance(cached, ManipulationPoseUnreachable):
+            self.cache_hits += 1
+            raise ManipulationPoseUnreachable(str(cached.message), **cached.details)
+        if cached is not None:
+            vertices = cached[0].copy()
+            vertices[0], vertices[-1] = a, b
+            if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
+                self.cache_hits += 1
+                self._cache.move_to_end(key)
+                positions, times = time_parameterise(
+                    vertices, self.chain.max_velocity, self.acceleration, self.resolution
+                )
+                positions[0], positions[-1] = a, b
+                return ArmTrajectory(self.chain.joints, positions, times, cached[1], exact.calls)
+        try:
+            trajectory, vertices = self._plan(a, b, check, padded, exact, seed, max_checks, timeout)
+        except ManipulationPoseUnreachable as e:
+            if e.details.get("reason") == "budget spent":  # deterministic: remembered
+                self._remember(key, e)
+            raise
+        self._remember(key, (vertices, trajectory.planned))
+        return trajectory
+
+    def _remember(self, key: object, value: _Cached) -> None:
+        self._cache[key] = value
+        self._cache.move_to_end(key)
+        while len(self._cache) > CACHE_SIZE:
+            self._cache.popitem(last=False)
+
+    def _plan(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        check: Check,
+        padded: _Checker,
+        exact: _Checker,
+        seed: int,
+        max_checks: int,
+        timeout: float,
+    ) -> tuple[ArmTrajectory, np.ndarray]:
+        resolution = self.resolution
+        for attempt in range(2):
+            vertices = self._straight(a, b, check, resolution)
+            planned = vertices is None
+            if vertices is None:
+                vertices = self._sample(
+                    a, b, check, padded, seed + 1, resolution, max_checks, timeout
+                )
+            if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
+                positions, times = time_parameterise(
+                    vertices, self.chain.max_velocity, self.acceleration, resolution
+                )
+                positions[0], positions[-1] = a, b
+                calls = padded.calls + exact.calls
+                return (
+                    ArmTrajectory(self.chain.joints, positions, times, planned, calls),
+                    vertices,
+                )
+            log.info(
+                "arm path grazes an obstacle at resolution %.3f rad (attempt %d)",
+                resolution,
+                attempt + 1,
+            )
+            resolution /= 2.0
+        raise ManipulationPoseUnreachable(
+            "no arm path that the exact geometry confirms (grazes at every resolution)",
+            reason="path not verified",
+        )
+
+    def follow(
+        self, waypoints: Sequence[Q], *, allowed_contacts: Iterable[str] = ()
+    ) -> ArmTrajectory:
+        """The straight joint-space segments through ``waypoints`` (e.g. IK solutions
+        along a straight tool line: pregrasp -> grasp, a lift, the last centimetres of a
+        placing), checked every :data:`VERIFY_RESOLUTION` rad in the exact geometry with
+        ``allowed_contacts`` (the object grasped may touch the fingers, the counter the
+        object lifted off) and timed. A forbidden contact:
+        :class:`ManipulationPoseUnreachable` naming it."""
+        if isinstance(allowed_contacts, str):
+            raise TypeError(
+                f"allowed_contacts is a set of names, not the string {allowed_contacts!r}"
+            )
+        if len(waypoints) < 1:
+            raise ValueError("follow needs at least one waypoint")
+        vertices = np.array([self._config(q, f"waypoint {i}") for i, q in enumerate(waypoints)])
+        exact = _Checker(self.verifier, self.chain, allowed_contacts)
+        for q in _dense(vertices, self.verify_resolution):
+            hits = exact.contacts(q)
+            if hits:
+                raise ManipulationPoseUnreachable(
+                    "straight arm motion in collision: "
+                    + ", ".join(f"{x} touches {y}" for x, y in sorted(set(hits))),
+                    reason="straight motion in collision",
+                    contacts=tuple(sorted(set(hits))),
+                )
+        positions, times = time_parameterise(
+            vertices, self.chain.max_velocity, self.acceleration, self.resolution
+        )
+        return ArmTrajectory(self.chain.joints, positions, times, False, exact.calls)
+
+    # ------------------------------------------------------------------ internals
+    @staticmethod
+    def _straight(a: np.ndarray, b: np.ndarray, check: Check, step: float) -> np.ndarray | None:
+        line = np.array([a, b])
+        if all(check(q) for q in _dense(line, step)):
+            return line
+        return None
+
+    def _sample(
+        self,
+        a: np.ndarray,
+        b: np.ndarray,
+        check: Check,
+        padded: _Checker,
+        seed: int,
+        resolution: float,
+        max_checks: int,
+        timeout: float,
+    ) -> np.ndarray:
+        chain = self.chain
+        n = len(chain.joints)
+        space = ob.RealVectorStateSpace(n)
+        bounds = ob.RealVectorBounds(n)
+        for j in range(n):
+            if chain.continuous[j]:
+                lo = min(a[j], b[j]) - math.pi
+                hi = max(a[j], b[j]) + math.pi
+            else:
+                lo, hi = chain.lower[j], chain.upper[j]
+            bounds.setLow(j, float(lo))
+            bounds.setHigh(j, float(hi))
+        space.setBounds(bounds)
+        # the seed right before the SimpleSetup and planner draw their generators; OMPL
+        # logs a misleading "already started" error on every reseed: silenced
+        ou.setLogLevel(ou.LOG_NONE)
+        ou.RNG.setSeed(seed)
+        ou.setLogLevel(ou.LOG_WARN)
+        ss = og.SimpleSetup(space)
+        si = ss.getSpaceInformation()
+        calls = [0]
+
+        def valid(s: object) -> bool:
+            calls[0] += 1
+            return check(s[0:n])  # type: ignore[index]
+
+        ss.setStateValidityChecker(valid)
+        si.setStateValidityCheckingResolution(resolution / space.getMaximumExtent())
+
+        def state(q: np.ndarray) -> object:
+            s = space.allocState()
+            s[0:n] = [float(v) for v in q]
+            space.enforceBounds(s)
+            return s
+
+        ss.setStartAndGoalStates(state(a), state(b))
+        ss.setPlanner(og.RRTConnect(si))
+        timed_out = ob.timedPlannerTerminationCondition(timeout)
+        ptc = ob.plannerOrTerminationCondition(
+            timed_out, ob.PlannerTerminationCondition(lambda: calls[0] >= max_checks)
+        )
+        ss.solve(ptc)
+        if not ss.haveExactSolutionPath():
+            reason = "budget spent" if calls[0] >= max_checks else "timeout"
+            if reason == "timeout":
+                log.warning("arm planning hit its %.1f s safety timeout", timeout)
+            raise ManipulationPoseUnreachable(
+                f"no collision-free arm path found ({reason}: {calls[0]} checks)",
+                reason=reason,
+                checks=calls[0],
+            )
+        path = ss.getSolutionPath()
+        simplifier = ss.getPathSimplifier()
+        simplifier.ropeShortcutPath(path)
+        simplifier.reduceVertices(path)
+        vertices = np.array([s[0:n] for s in path.getStates()], dtype=float)
+        vertices[0] = a
+        if float(np.max(np.abs(vertices[-1] - b))) > 1e-9:
+            vertices = np.vstack([vertices, b])
+        else:
+            vertices[-1] = b
+        return vertices

@@ -1,0 +1,415 @@
+"""The OMPL joint-space arm planner (issue 26) in isolation: paths around obstacles, held
+objects and the robot's own body, straight motions with allowed contacts, typed failures,
+determinism, and the time parameterisation."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from executive import Pose, kitchen, knowledge
+from executive.failures import ManipulationPoseUnreachable
+from projection import World
+from projection._collision_model import CollisionModel
+from projection._motion_planner import ArmMotionPlanner, ArmTrajectory, time_parameterise
+from projection._objects import object_type
+
+SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
+RIGHT = [f"r_{j}" for j in knowledge.ARM_JOINTS]
+TOOL = "r_gripper_tool_frame"
+#: Between the robot at SINK_NAV and the cup: the right arm's straight joint-space line
+#: from ``carry`` to the cup's back pregrasp sweeps through a cereal box here.
+IN_THE_SWEEP = Pose((1.25, 0.7, 0.995))
+
+
+def _on_counter(world: World, name: str, otype: str, x: float, y: float) -> None:
+    top = world.link_aabb(kitchen.SINK_SURFACE)[1][2]
+    world.spawn_object(name, otype, Pose((x, y, top + object_type(otype).size[2] / 2 + 0.001)))
+
+
+def _planner(world: World, **kwargs: float) -> ArmMotionPlanner:
+    touch = [n for n in world.link_names if n.startswith("r_gripper")]
+    return ArmMotionPlanner.for_world(world, RIGHT, TOOL, touch, **kwargs)
+
+
+def _pregrasp(world: World) -> tuple[float, ...]:
+    """The right arm's configuration at the cup's back pregrasp (the arm is put back)."""
+    start = world.arm_joints("right")
+    cup = world.object_pose("cup-1", "base_footprint").to_transform("cup-1")
+    world.move_tcp(right=knowledge.grasp_poses("cup", "back", cup)[0])
+    goal = world.arm_joints("right")
+    world.move_joints(right=start)
+    return goal
+
+
+@pytest.fixture()
+def sink() -> Iterator[World]:
+    """The robot at the sink counter, arms at carry, a cup and the cereal in the sweep."""
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        world.drive(SINK_NAV)
+        _on_counter(world, "cup-1", "cup", 1.3, 0.6)
+        world.spawn_object("cereal-9", "breakfast-cereal", IN_THE_SWEEP)
+        yield world
+
+
+def _exactly_clear(planner: ArmMotionPlanner, trajectory: ArmTrajectory, step: float) -> None:
+    """Every state along the trajectory's segments, ``step`` rad apart, is collision-free
+    in the exact geometry."""
+    p = trajectory.positions
+    for a, b in itertools.pairwise(p):
+        k = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        for j in range(k + 1):
+            q = a + (j / k) * (b - a)
+            assert planner.collisions(q) == [], q
+
+
+def _straight_hits(planner: ArmMotionPlanner, a: object, b: object) -> set[tuple[str, str]]:
+    a_, b_ = np.asarray(a), np.asarray(b)
+    hits: set[tuple[str, str]] = set()
+    for f in np.linspace(0.0, 1.0, 101):
+        hits |= set(planner.collisions(a_ + f * (b_ - a_)))
+    return hits
+
+
+def test_a_path_around_a_neighbour_the_straight_line_sweeps(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    try:
+        assert any(y == "cereal-9" for _x, y in _straight_hits(planner, start, goal))
+        t = planner.plan(start, goal, seed=3)
+        assert t.planned
+        assert tuple(t.positions[0]) == start and tuple(t.positions[-1]) == goal
+        steps = np.linalg.norm(np.diff(t.positions, axis=0), axis=1)
+        assert steps.max() <= planner.resolution + 1e-9
+        _exactly_clear(planner, t, 0.005)
+        # timed within the joints' velocity limits, from rest, monotonic
+        dt = np.diff(t.times)
+        assert t.times[0] == 0.0 and np.all(dt > 0)
+        speed = np.abs(np.diff(t.positions, axis=0)) / dt[:, None]
+        assert np.all(speed <= np.array(planner.chain.max_velocity) * (1 + 1e-6))
+        assert t.at(0.0) == start and t.at(t.duration + 1.0) == goal
+    finally:
+        planner.close()
+
+
+def test_the_held_object_is_checked_as_part_of_the_arm() -> None:
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        world.spawn_object("held", "cup", world.link_pose(TOOL), allow_overlap=True)
+        world.attach("held", TOOL)
+        start = world.arm_joints("right")
+        goal = (start[0] - 1.0, *start[1:])
+        mid = tuple((p + q) / 2 for p, q in zip(start, goal))
+        world.move_joints(right=mid)
+        below = world.object_pose("held").to_transform("held") * Pose((0, 0, -0.08), frame="held")
+        world.move_joints(right=start)
+        # a neighbour only the held cup's bottom meets half way along the straight line
+        world.spawn_object("nb", "cup", Pose(below.position, below.orientation))
+        planner = _planner(world)
+        try:
+            assert planner.collisions(mid) == [("held", "nb")]
+            t = planner.plan(start, goal, seed=1)
+            assert t.planned
+            _exactly_clear(planner, t, 0.005)
+        finally:
+            planner.close()
+
+
+def test_self_collision_is_avoided() -> None:
+    """Two collision-free configurations (the first of a seeded search, the robot in the
+    open) whose straight line sweeps the right hand through the robot's own body and
+    nothing else: the plan goes around its body."""
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        planner = _planner(world)
+        try:
+            robot_links = set(planner.model.links[planner.model.robot])
+            chain = planner.chain
+            rng = np.random.default_rng(0)
+            for _ in range(500):
+                a = rng.uniform(chain.lower, chain.upper)
+                b = rng.uniform(chain.lower, chain.upper)
+                if planner.collisions(a) or planner.collisions(b):
+                    continue
+                hits = _straight_hits(planner, a, b)
+                if hits and all(x in robot_links and y in robot_links for x, y in hits):
+                    break
+            else:
+                pytest.fail("no straight line through the robot's body in 500 samples")
+            t = planner.plan(a, b, seed=2)
+            assert t.planned
+            _exactly_clear(planner, t, 0.005)
+        finally:
+            planner.close()
+
+
+def test_a_goal_in_collision_fails_typed_before_planning(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    sink.move_joints(right=goal)
+    sink.spawn_object(
+        "box", "breakfast-cereal", sink.link_pose("r_forearm_roll_link"), allow_overlap=True
+    )
+    sink.move_joints(right=start)
+    planner = _planner(sink)
+    try:
+        with pytest.raises(
+            ManipulationPoseUnreachable, match="goal configuration in collision"
+        ) as e:
+            planner.plan(start, goal)
+        assert e.value.details["reason"] == "goal in collision"
+        assert any(y == "box" for _x, y in e.value.details["contacts"])
+    finally:
+        planner.close()
+
+
+def test_planning_is_bounded_by_its_check_budget(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    try:
+        with pytest.raises(ManipulationPoseUnreachable, match="budget spent") as e:
+            planner.plan(start, goal, seed=3, max_checks=30)
+        assert e.value.details["checks"] < 200
+    finally:
+        planner.close()
+
+
+def test_the_same_seed_gives_the_same_path(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    first = _planner(sink)
+    second = _planner(sink)
+    try:
+        a = first.plan(start, goal, seed=5)
+        first.plan(start, goal, seed=6)  # another query in between changes nothing
+        b = first.plan(start, goal, seed=5)
+        c = second.plan(start, goal, seed=5)
+        for other in (b, c):
+            assert np.array_equal(a.positions, other.positions)
+            assert np.array_equal(a.times, other.times)
+        assert not np.array_equal(a.positions, first.plan(start, goal, seed=0).positions)
+    finally:
+        first.close()
+        second.close()
+
+
+def test_a_goal_already_reached_is_a_trivial_path(sink: World) -> None:
+    planner = _planner(sink)
+    try:
+        q = sink.arm_joints("right")
+        t = planner.plan(q, q)
+        assert t.positions.shape == (1, 7) and tuple(t.positions[0]) == q
+        assert t.duration == 0.0 and not t.planned
+    finally:
+        planner.close()
+
+
+def test_a_clear_straight_line_is_not_sampled(sink: World) -> None:
+    planner = _planner(sink)
+    try:
+        q = sink.arm_joints("right")
+        goal = (q[0], q[1], q[2], q[3], q[4], q[5], q[6] + 0.5)  # roll the wrist
+        t = planner.plan(q, goal)
+        assert not t.planned and tuple(t.positions[-1]) == goal
+    finally:
+        planner.close()
+
+
+def test_straight_motions_allow_only_the_named_contacts_at_the_fingers() -> None:
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        world.spawn_object("between", "spoon", world.link_pose(TOOL), allow_overlap=True)
+        q = world.arm_joints("right")
+        nudged = (*q[:6], q[6] + 0.05)
+        planner = _planner(world)
+        try:
+            with pytest.raises(ManipulationPoseUnreachable, match="between"):
+                planner.follow([q, nudged])
+            t = planner.follow([q, nudged], allowed_contacts={"between"})
+            assert tuple(t.positions[-1]) == nudged and t.duration > 0.0
+        finally:
+            planner.close()
+        # an allowed object is still an obstacle for every link but the fingers and palm
+        world.spawn_object(
+            "at-forearm",
+            "breakfast-cereal",
+            world.link_pose("r_forearm_roll_link"),
+            allow_overlap=True,
+        )
+        planner = _planner(world)
+        try:
+            hits = planner.collisions(q, allowed_contacts={"between", "at-forearm"})
+            assert any(y == "at-forearm" for _x, y in hits)
+        finally:
+            planner.close()
+
+
+def test_bad_input_is_refused_before_anything_moves(sink: World) -> None:
+    planner = _planner(sink)
+    try:
+        q = sink.arm_joints("right")
+        with pytest.raises(ValueError, match="needs 7 values"):
+            planner.plan(q[:6], q)
+        with pytest.raises(ValueError, match=r"r_elbow_flex_joint = 1\.0000 outside"):
+            planner.plan(q, (*q[:3], 1.0, *q[4:]))
+        with pytest.raises(ValueError, match="finite"):
+            planner.plan(q, (*q[:6], float("nan")))
+        with pytest.raises(LookupError, match="cerael-9"):
+            planner.plan(q, q, allowed_contacts={"cerael-9"})
+        with pytest.raises(TypeError, match="set of names"):
+            planner.plan(q, q, allowed_contacts="cup-1")
+        with pytest.raises(ValueError, match="seed"):
+            planner.plan(q, q, seed=-1)
+    finally:
+        planner.close()
+    with pytest.raises(LookupError, match="r_elbow_flx_joint"):
+        ArmMotionPlanner.for_world(sink, ["r_elbow_flx_joint"], TOOL, [])
+    with pytest.raises(ValueError, match="padding"):
+        CollisionModel.from_world(sink, padding=-0.01)
+
+
+def test_time_parameterisation_respects_limits_and_rests_at_vertices() -> None:
+    vertices = np.array([[0.0, 0.0], [1.0, 0.5], [1.0, 2.5]])
+    positions, times = time_parameterise(vertices, [1.0, 0.5], 2.0, 0.01)
+    assert np.array_equal(positions[0], vertices[0]) and np.array_equal(positions[-1], vertices[-1])
+    dt = np.diff(times)
+    speed = np.abs(np.diff(positions, axis=0)) / dt[:, None]
+    assert np.all(speed <= np.array([1.0, 0.5]) * (1 + 1e-9))
+    # the second segment moves joint 1 by 2 rad at 0.5 rad/s: at least 4 s
+    corner = int(np.flatnonzero((positions == vertices[1]).all(axis=1))[0])
+    assert times[-1] - times[corner] >= 4.0
+    # it starts and ends each segment slowly (from and to rest)
+    assert speed[0].max() < speed[len(speed) // 4].max()
+
+
+def test_one_model_serves_both_arms() -> None:
+    """Focusing the model on one arm's self pairs filters Bullet's self contacts; the
+    other arm's pairs, computed afterwards, are those of a fresh model."""
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        left = [f"l_{j}" for j in knowledge.ARM_JOINTS]
+        with CollisionModel.from_world(world) as fresh, CollisionModel.from_world(world) as shared:
+            right_chain = fresh.chain(RIGHT, TOOL, ["r_gripper_palm_link"])
+            expected = fresh.self_pairs(right_chain)
+            shared.focus(shared.chain(left, "l_gripper_tool_frame", ["l_gripper_palm_link"]))
+            assert shared.self_pairs(shared.chain(RIGHT, TOOL, ["r_gripper_palm_link"])) == expected
+            assert expected  # the right arm can hit the body and the left arm
+
+
+def test_the_controller_plans_free_motions_only_when_asked(sink: World) -> None:
+    """``World.arm_motion_planning`` (off by default) makes the simulated controller's
+    configuration moves OMPL paths: the carry -> pregrasp move that the straight line and
+    the raised-via detours route through the kitchen or the robot's own body is clear."""
+    from projection._arm_planner import arm_path, swept_objects
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    assert sink.arm_motion_planning is False
+    planner = _planner(sink)
+    try:
+        routed = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+        assert routed is not None
+        sink.arm_motion_planning = True
+        planned = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+        assert planned is not None and planned != routed
+        assert planned[0]["right"] == start and planned[-1]["right"] == goal
+        assert sink.motion_planning_fallbacks == 0
+        torso = sink.torso_height
+
+        def hits(path: list[dict[str, tuple[float, ...]]]) -> set[tuple[str, str]]:
+            out: set[tuple[str, str]] = set()
+            for a, b in itertools.pairwise(path):
+                q0, q1 = np.array(a["right"]), np.array(b["right"])
+                for f in np.linspace(0.0, 1.0, 6):
+                    out |= set(planner.collisions(q0 + f * (q1 - q0)))
+            return out
+
+        assert hits(routed)  # today's router: through the counter or the robot
+        assert not hits(planned)
+        free = set(sink.objects)
+        assert swept_objects(sink, [(torso, c) for c in planned], free - {"cup-1"}) == set()
+    finally:
+        planner.close()
+
+
+def test_a_planning_failure_falls_back_to_the_router_and_is_counted(sink: World) -> None:
+    from projection._arm_planner import arm_path
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    # a box where the forearm ends: the planner refuses the goal, the router still moves
+    sink.move_joints(right=goal)
+    forearm = sink.link_pose("r_forearm_roll_link")
+    sink.spawn_object("box", "breakfast-cereal", forearm, allow_overlap=True)
+    sink.move_joints(right=start)
+    sink.arm_motion_planning = True
+    path = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+    assert sink.motion_planning_fallbacks == 1
+    assert path is not None and path[-1]["right"] == goal
+
+
+def test_the_planning_model_inflates_the_kitchen_and_the_exact_one_does_not(sink: World) -> None:
+    import pybullet as pb
+
+    with (
+        CollisionModel.from_world(sink) as padded,
+        CollisionModel.from_world(sink, padding=0.0) as exact,
+    ):
+        assert exact.proxy == {}
+        kitchen = padded.fixed[0]
+        names = {i: n for n, i in padded.links[kitchen].items()}
+        inflated = {names[link]: b for b, (_k, link) in padded.proxy.items()}
+        assert kitchen_surface_in(inflated)
+        for name, stand_in in inflated.items():
+            lo, hi = sink.link_aabb(name)
+            plo, phi = pb.getAABB(stand_in, -1, physicsClientId=padded.client)
+            # Bullet's AABBs carry a small margin of their own: compare the growth
+            assert all(abs((a - b) - padded.padding) < 5e-3 for a, b in zip(lo, plo)), name
+            assert all(abs((b - a) - padded.padding) < 5e-3 for a, b in zip(hi, phi)), name
+
+
+def kitchen_surface_in(links: dict[str, int]) -> bool:
+    return kitchen.SINK_SURFACE in links and kitchen.ISLAND_SURFACE in links
+
+
+def test_contacts_of_the_robot_parts_that_do_not_move_are_not_the_motions(sink: World) -> None:
+    """An object against the left forearm does not block the right arm's motions (the
+    left arm stands still), but it does block the left arm's."""
+    sink.spawn_object("leaning", "cup", sink.link_pose("l_forearm_roll_link"), allow_overlap=True)
+    right = _planner(sink)
+    left_touch = [n for n in sink.link_names if n.startswith("l_gripper")]
+    left = ArmMotionPlanner.for_world(
+        sink, [f"l_{j}" for j in knowledge.ARM_JOINTS], "l_gripper_tool_frame", left_touch
+    )
+    try:
+        assert right.collisions(sink.arm_joints("right")) == []
+        assert any(y == "leaning" for _x, y in left.collisions(sink.arm_joints("left")))
+    finally:
+        right.close()
+        left.close()
+
+
+def test_plans_are_remembered_per_world_state(sink: World) -> None:
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    try:
+        first = planner.plan(start, goal, seed=3)
+        again = planner.plan(start, goal, seed=3)
+        assert planner.cache_hits == 1
+        assert np.array_equal(first.positions, again.positions)
+        assert again.checks < first.checks  # only the re-verification
+        # the cereal moved: another world, planned again
+        moved = sink.object_pose("cereal-9")
+        x, y, z = moved.position
+        sink.set_object_pose("cereal-9", Pose((x, y + 0.05, z), moved.orientation))
+        planner.sync(sink)
+        planner.plan(start, goal, seed=3)
+        assert planner.cache_hits == 1
+        # the same budget failure is not searched for twice
+        with pytest.raises(ManipulationPoseUnreachable, match="budget"):
+            planner.plan(start, goal, seed=4, max_checks=30)
+        with pytest.raises(ManipulationPoseUnreachable, match="budget"):
+            planner.plan(start, goal, seed=4, max_checks=30)
+        assert planner.cache_hits == 2
+    finally:
+        planner.close()
