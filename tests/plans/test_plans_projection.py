@@ -94,7 +94,7 @@ def test_pick_and_place_walkthrough(mrun):
 def test_one_bowl_transport(mrun):
     world = projection.World(seed=1)
     outcome = run_projected(mrun, world, plans.table_setting, world, ("bowl",), True, 1)
-    assert outcome["bowl"].success and outcome["bowl"].distance > 0
+    assert outcome["bowl"].success
     assert on_island(world, "bowl-1") and world.attachments == {}
 
 
