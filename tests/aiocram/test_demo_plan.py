@@ -21,7 +21,7 @@ def test_run_demo_runs_the_plan_it_is_given() -> None:
 
     calls: list[tuple[object, DemoConfig, list[str]]] = []
 
-    async def bowl_without_imagining(world, config):  # type: ignore[no-untyped-def]
+    async def bowl_without_imagining(world, config):
         calls.append((world, config, sorted(world.objects)))
         return await table_setting(
             world, config.objects, seed=config.seed, projection_reasoning=False, spawn=False
@@ -48,7 +48,7 @@ def test_outcomes_a_plan_only_returns_are_reported_and_checked_against_the_truth
     report holds its claim, the true world says it was not delivered (a phantom), and
     the moment before the cleanup never came (the invariant fails, it is not assumed)."""
 
-    async def claims_the_bowl(world, config):  # type: ignore[no-untyped-def]
+    async def claims_the_bowl(world, config):
         return {"bowl": ObjectOutcome("bowl", "bowl-1", success=True)}
 
     report = run_demo(
