@@ -73,7 +73,8 @@ class _Transports:
         self.outcomes: dict[str, ObjectOutcome] = {}  # by type, in the order first tried
         self.distances: dict[str, float] = {}  # by type: metres driven while transported
         self._before_cleanup = before_cleanup
-        self._current: str | None = None  # the type being transported, else None
+        self._driven = 0.0  # metres driven in the whole run so far
+        self._start = 0.0  # ``_driven`` when the transport going on (if any) started
 
     def subscribe(self, env: Environment) -> Callable[[], None]:
         from executive.events import RobotStateChanged
@@ -84,18 +85,17 @@ class _Transports:
 
         def moved(_event: RobotStateChanged) -> None:
             now = world.robot_pose()
-            if self._current is not None:
-                self.distances[self._current] += now.distance_to(last[0])
+            self._driven += now.distance_to(last[0])
             last[0] = now
 
         def started(event: TransportStarted) -> None:
             otype = event.outcome.type
             self.outcomes.setdefault(otype, event.outcome)
             self.distances.setdefault(otype, 0.0)
-            self._current = otype
+            self._start = self._driven
 
-        def ended(_event: TransportEnded) -> None:
-            self._current = None
+        def ended(event: TransportEnded) -> None:
+            self.distances[event.outcome.type] += self._driven - self._start
 
         undo = [
             env.subscribe(RobotStateChanged, moved),
