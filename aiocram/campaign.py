@@ -52,9 +52,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aiocram.demo._config import DEFAULT_OBJECTS, add_objects_argument, whole
-from aiocram.demo._config import check_objects as _check_objects
-from aiocram.demo._report import crash_record
+from aiocram.demo import DEFAULT_OBJECTS, add_objects_argument, crash_record, whole
+from aiocram.demo import check_objects as _check_objects
 from aiocram.foresight import fidelity_lines, fidelity_summary
 from aiocram.truth import INVARIANTS
 

@@ -36,7 +36,14 @@ plan fetches and places it is :func:`plans.demo.fetch_location` /
 from __future__ import annotations
 
 from ._cli import add_parser
-from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, check_objects
+from ._config import (
+    DEFAULT_OBJECTS,
+    DemoConfig,
+    DemoConfigError,
+    add_objects_argument,
+    check_objects,
+    whole,
+)
 from ._report import DemoReport, crash_record
 from ._run import DemoPlan, frozen_imports, run_demo, run_demo_once, table_setting
 from ._summary import outcome_table, print_report
@@ -47,6 +54,7 @@ __all__ = [
     "DemoConfigError",
     "DemoPlan",
     "DemoReport",
+    "add_objects_argument",
     "add_parser",
     "check_objects",
     "crash_record",
@@ -56,4 +64,5 @@ __all__ = [
     "run_demo",
     "run_demo_once",
     "table_setting",
+    "whole",
 ]
