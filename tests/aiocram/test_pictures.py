@@ -115,7 +115,7 @@ def demo_run(
     out = tmp_path_factory.mktemp("demo") / "out"
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(_costmap_figure, "draw_costmap", reading)
-        mp.setattr(demo_outputs, "_fork", lambda work: None)
+        mp.setattr(demo_outputs, "_fork", lambda work, adopt=None: None)
         code = main(["demo", "--seed", "1", "--no-live", "--out", str(out)])
     assert code in (0, 1)  # 1 = an invariant violated: reported, not a crash
     yield out, drawn
