@@ -4,7 +4,10 @@
 from CRAM's location designators with the object's half height added through
 ``(for <type>)``, random yaw; otherwise CRAM's fixed poses), transports each to the
 kitchen island with the designators of the reference's section 3.4, skips an object on a
-high-level failure, parks the arms and returns an outcome per object.
+high-level failure, parks the arms and returns an outcome per object. It does no
+bookkeeping for whoever runs it: an observer learns what it does from the events it
+emits (:class:`TransportStarted`, :class:`TransportEnded`, :class:`TransportsOver`) and
+measures the rest itself (``aiocram demo`` measures distance, times and the truth).
 
 Quirks decided: the cereal is spawned and searched as ``breakfast-cereal`` (HEAD spawned
 ``:cereal`` in random mode, so it was never found); HEAD's extra search for the cereal
@@ -48,6 +51,7 @@ from executive import (
 from executive.events import Event, emit
 
 from ._common import CountedRetries, ignoring, retry_ledger
+from ._designators import ROBOT
 from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
@@ -240,10 +244,11 @@ def _spawn_filter(world: SceneSetup, object_type: str) -> Callable[[Pose], bool]
 def _reachable_sample(
     location: LocationDesignator, accept: Callable[[Pose], bool], tries: int = 30
 ) -> Pose:
-    """The first sample of ``location`` that a robot location ``(reachable-for pr2)``
-    resolves for (deliberate: CRAM's spawning region reaches 0.65 m deep into the
-    counter, beyond the arm's reach from any collision-free base pose, so such objects
-    were unfetchable); after ``tries`` samples, the last one."""
+    """The first sample of ``location`` that a robot location ``(reachable-for <robot>)``
+    resolves for (the robot's name from :data:`plans._designators.ROBOT`; deliberate:
+    CRAM's spawning region reaches 0.65 m deep into the counter, beyond the arm's reach
+    from any collision-free base pose, so such objects were unfetchable); after
+    ``tries`` samples, the last one."""
     current: Designator = location
     sample: Pose = location.reference()
     for _ in range(tries):
@@ -254,7 +259,7 @@ def _reachable_sample(
                 break
             current = nxt
             continue
-        reach = a.location(reachable_for="pr2", location=a.location(pose=sample))
+        reach = a.location(reachable_for=ROBOT, location=a.location(pose=sample))
         try:
             reach.reference()
             return sample
