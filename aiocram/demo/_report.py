@@ -8,11 +8,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aiocram.truth import TruthReport
 
 from ._config import DemoConfig
+
+if TYPE_CHECKING:  # plans is imported when a demo runs, not with this module
+    from plans.demo import ObjectOutcome
 
 __all__ = ["DemoReport", "crash_record"]
 
@@ -26,7 +29,7 @@ class DemoReport:
     seconds spent imagining) and the whole run's times."""
 
     config: DemoConfig
-    outcomes: dict[str, Any]
+    outcomes: dict[str, ObjectOutcome]
     invariants: dict[str, bool]
     violations: dict[str, str]
     sim_time_s: float
