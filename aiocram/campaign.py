@@ -52,6 +52,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aiocram.demo import DEFAULT_OBJECTS, add_objects_argument, crash_record, whole
+from aiocram.demo import check_objects as _check_objects
 from aiocram.foresight import fidelity_lines, fidelity_summary
 from aiocram.truth import INVARIANTS
 
@@ -74,7 +76,7 @@ class Job:
     seed: int
     fault_rate: float
     projection: bool
-    objects: tuple[str, ...] = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
+    objects: tuple[str, ...] = DEFAULT_OBJECTS
     runs: int = 3
 
 
@@ -93,15 +95,7 @@ def run_job(job: Job) -> dict[str, Any]:
             runs=job.runs,
         )
     except Exception as exc:  # the campaign records every failure of the harness itself
-        result = {
-            "seed": job.seed,
-            "fault_rate": job.fault_rate,
-            "projection": job.projection,
-            "error": f"{type(exc).__name__}: {exc}",
-            "objects": {},
-            "planned": list(job.objects),
-            "invariants": {},
-        }
+        result = _crashed(job, f"{type(exc).__name__}: {exc}")
     result["wall_time_s"] = time.perf_counter() - t0
     return result
 
@@ -184,16 +178,20 @@ def _died(job: Job, exitcode: int | None, wall: float) -> dict[str, Any]:
         if exitcode is not None and exitcode < 0
         else f"exited with status {exitcode}"
     )
-    return {
-        "seed": job.seed,
-        "fault_rate": job.fault_rate,
-        "projection": job.projection,
-        "error": f"WorkerDied: the worker process running this job was {how}",
-        "objects": {},
-        "planned": list(job.objects),  # they count as not delivered
-        "invariants": {},
-        "wall_time_s": wall,
-    }
+    record = _crashed(job, f"WorkerDied: the worker process running this job was {how}")
+    record["wall_time_s"] = wall
+    return record
+
+
+def _crashed(job: Job, error: str) -> dict[str, Any]:
+    """The record of ``job`` when it never reported (:func:`aiocram.demo.crash_record`)."""
+    return crash_record(
+        seed=job.seed,
+        fault_rate=job.fault_rate,
+        projection=job.projection,
+        objects=job.objects,
+        error=error,
+    )
 
 
 def _never() -> bool:
@@ -336,19 +334,9 @@ def _run_dask(
             try:
                 done(fut.result())
             except Exception as exc:  # a worker died (KilledWorker) or the cluster failed
-                job = jobs[index[fut.key]]
-                done(
-                    {
-                        "seed": job.seed,
-                        "fault_rate": job.fault_rate,
-                        "projection": job.projection,
-                        "error": f"{type(exc).__name__}: {exc}",
-                        "objects": {},
-                        "planned": list(job.objects),
-                        "invariants": {},
-                        "wall_time_s": 0.0,
-                    }
-                )
+                record = _crashed(jobs[index[fut.key]], f"{type(exc).__name__}: {exc}")
+                record["wall_time_s"] = 0.0
+                done(record)
     finally:
         client.close()
         if cluster is not None:
@@ -356,22 +344,10 @@ def _run_dask(
 
 
 def check_objects(objects: Sequence[str]) -> tuple[str, ...]:
-    """The demo objects as a tuple; unknown or repeated names, or none: ValueError saying
-    which names the demo knows."""
-    from aiocram.demo import DEFAULT_OBJECTS
-
-    objects = tuple(objects)
-    if not objects:
-        raise ValueError(f"--objects needs at least one of {' '.join(DEFAULT_OBJECTS)}")
-    unknown = [o for o in objects if o not in DEFAULT_OBJECTS]
-    if unknown:
-        raise ValueError(
-            f"--objects: unknown {' '.join(unknown)}; the demo knows {' '.join(DEFAULT_OBJECTS)}"
-        )
-    repeated = sorted({o for o in objects if objects.count(o) > 1})
-    if repeated:
-        raise ValueError(f"--objects: {' '.join(repeated)} given more than once")
-    return objects
+    """The demo objects as a tuple; unknown or repeated names, or none: ValueError
+    (:class:`aiocram.demo.DemoConfigError`) saying which names the demo knows: the demo's
+    own check (:func:`aiocram.demo.check_objects`)."""
+    return _check_objects(objects)
 
 
 def plan_campaign(
@@ -697,7 +673,6 @@ def _rates(text: str) -> list[float]:
 def add_parser(subparsers: Any) -> None:
     from aiocram._help import HelpFormatter
     from aiocram._outputs import out_dir_arg
-    from aiocram.demo import DEFAULT_OBJECTS, _whole
 
     p = subparsers.add_parser(
         "campaign",
@@ -716,21 +691,15 @@ def add_parser(subparsers: Any) -> None:
         formatter_class=HelpFormatter,
     )
     p.add_argument(
-        "--seeds", type=_whole(1), default=20, help="seeds per fault rate and mode (>= 1)"
+        "--seeds", type=whole(1), default=20, help="seeds per fault rate and mode (>= 1)"
     )
     p.add_argument(
         "--first-seed",
-        type=_whole(0),
+        type=whole(0),
         default=1,
         help="the first seed; the runs use FIRST .. FIRST+SEEDS-1 (>= 0)",
     )
-    p.add_argument(
-        "--objects",
-        nargs="+",
-        default=list(Job.objects),
-        metavar="OBJECT",
-        help=f"objects to set in every run, each once; any of: {' '.join(DEFAULT_OBJECTS)}",
-    )
+    add_objects_argument(p, "objects to set in every run, each once", choices=False)
     p.add_argument(
         "--faults",
         type=_rates,
@@ -746,7 +715,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--only-projection", action="store_true", help=argparse.SUPPRESS)
     p.add_argument(
         "--workers",
-        type=_whole(1),
+        type=whole(1),
         default=os.cpu_count() or 1,
         help="runs at the same time (local: worker processes; dask: LocalCluster workers)",
     )

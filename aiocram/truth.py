@@ -66,8 +66,8 @@ UPRIGHT_DEG = 15.0
 NEAR_TARGET = 0.12
 #: Settle steps (1/240 s) the true world gets after the run before it is measured.
 SETTLE_STEPS = 240
-#: Objects whose centre is below this height (m) lie on the floor.
-FLOOR_Z = 0.3
+#: Objects whose centre is below this height (m) lie on the floor (the kitchen's).
+FLOOR_HEIGHT = kitchen.FLOOR_HEIGHT
 #: Joint-space tolerance (rad) for "the arms are at a configuration".
 ARM_TOLERANCE = 0.05
 #: Configurations the arms may rest in at the end of the plan (``carry`` is where the
@@ -190,7 +190,7 @@ def where_is(world: Any, name: str) -> str:
         return "drawer"
     if _on_surface(world, position, SINK):
         return "sink"
-    if position[2] < FLOOR_Z:
+    if position[2] < FLOOR_HEIGHT:
         return "floor"
     return "elsewhere"
 

@@ -40,7 +40,7 @@ def projection_only(seed: int) -> tuple[float, int]:
 
 def real(seed: int, with_projection: bool) -> tuple[float, float, int, float]:
     report = run_demo(DemoConfig(seed=seed, projection=with_projection, live=False))
-    distance = sum(o.distance for o in report.outcomes.values())
+    distance = sum(report.distances.values())
     return report.wall_time_s, report.sim_time_s, report.delivered, distance
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "DRAWER_HANDLE",
     "DRAWER_JOINT",
     "DRAWER_LINK",
+    "FLOOR_HEIGHT",
     "ISLAND_SURFACE",
     "SINK_SURFACE",
 ]
@@ -35,18 +36,33 @@ DRAWER_JOINT = f"{DRAWER_LINK}_joint"
 #: The drawer's handle (the gripper grasps it to open and close the drawer).
 DRAWER_HANDLE = "sink_area_left_upper_drawer_handle"
 
-#: The demo's object types, in CRAM's order (the bowl first: the cup, spoon and milk
-#: targets are placed relative to it).
+#: The demo's object types, in the order the demo sets them (CRAM's: the bowl first, the
+#: cup, spoon and milk targets are placed relative to it). **The one list of demo
+#: objects**: a newcomer adds an object here, with its row in :data:`DEMO_POSES` (and
+#: :data:`DEMO_ATTACHMENTS` if it starts in a container); ``aiocram demo``, the campaign,
+#: the plans' fixed scene and :func:`projection.make_world_pair` derive from them.
 DEMO_OBJECTS: tuple[str, ...] = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
-#: CRAM's fixed spawning poses of the demo's objects (map).
+#: CRAM's fixed spawning poses of the demo's objects (map), in the order its fixed scene
+#: spawns them (:func:`projection.make_world_pair` keeps it).
 DEMO_POSES: Mapping[str, Pose] = MappingProxyType(
     {
         "breakfast-cereal": Pose((1.4, 0.4, 0.85)),
         "cup": Pose((1.3, 0.6, 0.9)),
         "bowl": Pose((1.4, 0.8, 0.87)),
-        "spoon": Pose.from_xyz_yaw(1.4, 1.0, 0.74132, math.pi),
         "milk": Pose.from_xyz_yaw(1.4, 0.62, 0.95, math.pi),
+        "spoon": Pose.from_xyz_yaw(1.4, 1.0, 0.74132, math.pi),
     }
 )
 #: Demo objects that start attached to a kitchen link (the spoon lies in the drawer).
 DEMO_ATTACHMENTS: Mapping[str, str] = MappingProxyType({"spoon": DRAWER_LINK})
+if set(DEMO_POSES) != set(DEMO_OBJECTS) or not set(DEMO_ATTACHMENTS) <= set(DEMO_OBJECTS):
+    raise ImportError(  # a newcomer's half-added object: say which row is missing
+        "executive.kitchen: every type in DEMO_OBJECTS needs its pose in DEMO_POSES (and "
+        "only those): missing "
+        f"{sorted(set(DEMO_OBJECTS) - set(DEMO_POSES))}, extra "
+        f"{sorted((set(DEMO_POSES) | set(DEMO_ATTACHMENTS)) - set(DEMO_OBJECTS))}"
+    )
+
+#: Below this height (m) an object's centre lies on the floor (every counter top is at
+#: 0.85 m or more; an object lying on the floor has its centre a few cm up).
+FLOOR_HEIGHT = 0.3

@@ -11,7 +11,7 @@ action             retries (HEAD)                              raises when exhau
 navigating         30 collision-check samples                  navigation-goal-in-collision
 turning-towards    1 (turn the base, look again)               looking-high-level-failure
 searching          9 search locations                          object-nowhere-to-be-found
-fetching           10 relocations, 1 regrasp, 30 pick checks   object-unfetchable
+fetching           10 relocations, 1 regrasp, 60 pick checks   object-unfetchable
 delivering         outer 2 targets, 5 relocations, 2 targets   object-undeliverable
 accessing/sealing  10 relocations                              env.-manipulation-impossible
 transporting       object-undeliverable -> drop at the sink    what search / fetch raise
@@ -26,7 +26,10 @@ in :mod:`plans._designators`.
 Every level has one retry scope: the counter and the designator cursor it advances are
 named there; inner counters are created inside the outer body, so they start afresh on
 every outer retry (CRAM's lexical counters). Counters are :class:`CountedRetries` whose
-names ("relocations", "regrasps", "targets", "search", ...) the demo tallies.
+names ("relocations", "regrasps", "targets", "search", ...) the demo tallies. Each budget
+has one name, in the module of its plan (``plans.fetch.FETCH_RELOCATIONS``,
+``plans.deliver.DELIVER_TARGETS``, ``plans.checks.PICK_CHECKS``, ...); the tables here and
+in the modules are tested against them.
 """
 
 # importing the plan modules registers their rules (one per action type, so order is free)

@@ -31,6 +31,7 @@ from executive import (
 from executive.events import object_name
 
 __all__ = [
+    "PICK_CHECKS",
     "PlacingPoseUnstable",
     "check_environment_manipulation_collisions",
     "check_navigating_collisions",
@@ -89,7 +90,12 @@ def _pick_arguments(action: Designator) -> dict[str, Any]:
     return dict(cast(Any, action.reference()).arguments)
 
 
-def check_picking_up_collisions(action: ActionDesignator, retries: int = 60) -> Designator:
+#: Picking-up solutions :func:`check_picking_up_collisions` probes (deliberate difference
+#: from CRAM's 30: see there); the one name of this budget.
+PICK_CHECKS = 60
+
+
+def check_picking_up_collisions(action: ActionDesignator, retries: int = PICK_CHECKS) -> Designator:
     """Probe the ``picking-up`` solutions (arm, grasp), from the newest one, until the
     whole trajectory (reach, grasp, lift) is reachable and touches nothing but the target
     object, and the arm sweeps through no other object on its way (the world model's

@@ -65,8 +65,11 @@ from .navigation import back_off
 from .pick_place import release_held
 
 __all__ = [
+    "DELIVER_RELOCATIONS",
     "DELIVER_RELOCATION_FAILURES",
+    "DELIVER_TARGETS",
     "DELIVER_TARGET_FAILURES",
+    "PLACE_TARGETS",
     "SINK_BASE_POSE",
     "SINK_DROP_CLEARANCE",
     "SINK_DROP_POSE",
@@ -74,6 +77,16 @@ __all__ = [
     "deliver",
     "drop_at_sink",
 ]
+
+# The retry budgets of ``delivering`` (CRAM HEAD's), each named once: the scopes below
+# read them, and the tables of this module's and :mod:`plans`' docstrings are checked
+# against them (tests/plans/test_retry_budgets.py).
+#: The outer scope: targets tried from a new base pose.
+DELIVER_TARGETS = 2
+#: The relocation scope: base poses tried for one target.
+DELIVER_RELOCATIONS = 5
+#: The target scope: targets tried from one base pose.
+PLACE_TARGETS = 2
 
 
 # ---------------------------------------------------------------------------- delivering
@@ -126,7 +139,7 @@ async def deliver(
     build ``placing`` at the target in ``base_footprint``, check it
     (:func:`check_placing_collisions`) and perform it. Raises ``ObjectUndeliverable``."""
     targets = SolutionCursor(target)
-    outer = CountedRetries(2, "deliver-targets")
+    outer = CountedRetries(DELIVER_TARGETS, "deliver-targets")
     object_type = _held_type(object_designator)
     injected_spot = _injected_spot(place_action, robot_location)
 
@@ -146,7 +159,7 @@ async def deliver(
         @retry_scope(
             DELIVER_RELOCATION_FAILURES,
             base_poses,
-            CountedRetries(5, "relocations"),
+            CountedRetries(DELIVER_RELOCATIONS, "relocations"),
             rethrow=undeliverable,
         )
         async def from_here() -> None:
@@ -155,7 +168,7 @@ async def deliver(
             @retry_scope(
                 DELIVER_TARGET_FAILURES,
                 targets,
-                CountedRetries(2, "targets"),
+                CountedRetries(PLACE_TARGETS, "targets"),
                 rethrow=undeliverable,
             )
             async def place_at_target() -> None:

@@ -4,7 +4,10 @@
 from CRAM's location designators with the object's half height added through
 ``(for <type>)``, random yaw; otherwise CRAM's fixed poses), transports each to the
 kitchen island with the designators of the reference's section 3.4, skips an object on a
-high-level failure, parks the arms and returns an outcome per object.
+high-level failure, parks the arms and returns an outcome per object. It does no
+bookkeeping for whoever runs it: an observer learns what it does from the events it
+emits (:class:`TransportStarted`, :class:`TransportEnded`, :class:`TransportsOver`) and
+measures the rest itself (``aiocram demo`` measures distance, times and the truth).
 
 Quirks decided: the cereal is spawned and searched as ``breakfast-cereal`` (HEAD spawned
 ``:cereal`` in random mode, so it was never found); HEAD's extra search for the cereal
@@ -45,9 +48,10 @@ from executive import (
     perform,
     yaw_quaternion,
 )
-from executive.events import RobotStateChanged
+from executive.events import Event, emit
 
 from ._common import CountedRetries, ignoring, retry_ledger, tally
+from ._designators import ROBOT
 from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
@@ -56,6 +60,9 @@ __all__ = [
     "FIXED_POSES",
     "OBJECTS",
     "ObjectOutcome",
+    "TransportEnded",
+    "TransportStarted",
+    "TransportsOver",
     "fetch_location",
     "place_location",
     "table_setting",
@@ -90,15 +97,45 @@ CEREAL_FALLBACK_OFFSETS = (0.25, 0.45, 0.65)
 class ObjectOutcome:
     """What happened to one object: ``failure`` is the high-level failure that made the
     demo skip it (None on success); ``retries`` the retries granted by kind
-    ("relocations", "regrasps", "targets", "search", ...); ``distance`` the metres the
-    base drove (between consecutive ``RobotStateChanged`` events)."""
+    ("relocations", "regrasps", "targets", "search", ...). What the run cost (distance
+    driven, time) is the observer's to measure, not the plan's (see
+    :class:`TransportStarted`)."""
 
     type: str
     name: str
     success: bool = False
     failure: BaseException | None = None
     retries: dict[str, int] = field(default_factory=dict)
-    distance: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class TransportStarted(Event):
+    """:func:`table_setting` starts transporting ``outcome.type`` (again, on its second
+    pass). ``outcome`` is the object's record, updated in place as the transport goes and
+    final when :class:`TransportEnded` is emitted for it (also when the plan is
+    evaporated). Deliberate difference from CRAM: its demo publishes nothing; these
+    events let an observer (the ``aiocram demo`` app) gather outcomes and measure each
+    transport (distance, truth) without the plan doing its bookkeeping."""
+
+    outcome: ObjectOutcome
+    cram_name = "demo-transport-started"
+
+
+@dataclass(frozen=True, slots=True)
+class TransportEnded(Event):
+    """:func:`table_setting` is done with this try of ``outcome.type`` (see
+    :class:`TransportStarted`)."""
+
+    outcome: ObjectOutcome
+    cram_name = "demo-transport-ended"
+
+
+@dataclass(frozen=True, slots=True)
+class TransportsOver(Event):
+    """:func:`table_setting`'s transports are over (done, failed or evaporated) and its
+    final cleanup comes next: what an observer sees now is what the plan left behind."""
+
+    cram_name = "demo-transports-over"
 
 
 def fetch_location(object_type: str) -> LocationDesignator:
@@ -207,10 +244,11 @@ def _spawn_filter(world: SceneSetup, object_type: str) -> Callable[[Pose], bool]
 def _reachable_sample(
     location: LocationDesignator, accept: Callable[[Pose], bool], tries: int = 30
 ) -> Pose:
-    """The first sample of ``location`` that a robot location ``(reachable-for pr2)``
-    resolves for (deliberate: CRAM's spawning region reaches 0.65 m deep into the
-    counter, beyond the arm's reach from any collision-free base pose, so such objects
-    were unfetchable); after ``tries`` samples, the last one."""
+    """The first sample of ``location`` that a robot location ``(reachable-for <robot>)``
+    resolves for (the robot's name from :data:`plans._designators.ROBOT`; deliberate:
+    CRAM's spawning region reaches 0.65 m deep into the counter, beyond the arm's reach
+    from any collision-free base pose, so such objects were unfetchable); after
+    ``tries`` samples, the last one."""
     current: Designator = location
     sample: Pose = location.reference()
     for _ in range(tries):
@@ -221,7 +259,7 @@ def _reachable_sample(
                 break
             current = nxt
             continue
-        reach = a.location(reachable_for="pr2", location=a.location(pose=sample))
+        reach = a.location(reachable_for=ROBOT, location=a.location(pose=sample))
         try:
             reach.reference()
             return sample
@@ -435,8 +473,6 @@ async def table_setting(
     projection_reasoning: bool = True,
     projection_runs: int = 3,
     spawn: bool = True,
-    before_cleanup: Callable[[], None] | None = None,
-    outcomes: dict[str, ObjectOutcome] | None = None,
     order_by_projection: bool = False,
     viewpoint_reasoning: bool = True,
 ) -> dict[str, ObjectOutcome]:
@@ -456,11 +492,11 @@ async def table_setting(
     as ``ObjectUndeliverable``); once all were tried, the skipped ones are tried once
     more (:func:`_transport_later`). The plan ends by parking the arms. Low-level
     failures that escape the plans and evaporation propagate (a drawer opened for the
-    spoon is still closed: see ``transport``). ``before_cleanup``, if given, is called
-    once the transports are over and before the final cleanup (an observer's hook: it
-    sees what the plan left behind). Returns ``{type: outcome}`` in ``objects`` order;
-    ``outcomes``, if given, is filled as the run goes (a caller whose run is evaporated,
-    e.g. by Ctrl-C, still learns what was done).
+    spoon is still closed: see ``transport``). Returns ``{type: outcome}`` in ``objects``
+    order. An observer learns as the run goes (also when it is evaporated, e.g. by
+    Ctrl-C) from the events the plan emits in the current environment:
+    :class:`TransportStarted` / :class:`TransportEnded` around each transport, and
+    :class:`TransportsOver` once the transports are over, before the final cleanup.
     ``order_by_projection`` (with ``projection_reasoning``): before each transport,
     :func:`plans.imagining.imagine_best` imagines transporting each of the next two
     objects and the better one (imagined success, then retries, then time) goes first;
@@ -471,26 +507,15 @@ async def table_setting(
     ``projection_reasoning``, see the issue-14 note for its measurement)."""
     if spawn:
         _spawn(world, objects, random, np.random.default_rng(seed))
-    env = current_environment()
-    if outcomes is None:
-        outcomes = {}
-    driven = [0.0]
-    last = [env.world.robot_pose()]
-
-    def moved(_event: RobotStateChanged) -> None:
-        now = env.world.robot_pose()
-        driven[0] += now.distance_to(last[0])
-        last[0] = now
-
-    unsubscribe = env.subscribe(RobotStateChanged, moved)
+    outcomes: dict[str, ObjectOutcome] = {}
 
     async def transport_one(outcome: ObjectOutcome, later: CountedRetries | None) -> None:
         obj: ObjectDesignator = an.object(type=outcome.type)
-        start = driven[0]
         ledger: Counter[str]
         with retry_ledger() as ledger:
             if later is not None and not later.do_retry():
                 return
+            emit(TransportStarted(outcome))
             outcome.failure = None
             try:
                 delivered = await perform(
@@ -511,7 +536,7 @@ async def table_setting(
                 outcome.failure = failure
             finally:  # also when evaporated (Ctrl-C): what was done so far
                 outcome.retries = dict(Counter(outcome.retries) + ledger)
-                outcome.distance += driven[0] - start
+                emit(TransportEnded(outcome))
 
     async def transport_next(object_type: str) -> str:
         """Transport ``object_type``; in imagination only the action (its failure is the
@@ -550,17 +575,13 @@ async def table_setting(
         await _transport_later(outcomes, transport_one)
         # the plan ends parked by itself (deliberate: CRAM left parking to the final
         # ``initialize-or-finalize``): the cleanup below must then find nothing to do, and
-        # an observer (``before_cleanup``) can tell a run that ended well from one that
+        # an observer (of ``TransportsOver``) can tell a run that ended well from one that
         # the cleanup had to rescue
         await park_arms("park")
     finally:
+        emit(TransportsOver())
         try:
-            if before_cleanup is not None:
-                before_cleanup()
-            try:
-                await cpl.shielded(_finalize(), timeout=FINALIZE_TIMEOUT)
-            except TimeoutError:
-                log.error("final cleanup cut short after %s s", FINALIZE_TIMEOUT)
-        finally:
-            unsubscribe()
+            await cpl.shielded(_finalize(), timeout=FINALIZE_TIMEOUT)
+        except TimeoutError:
+            log.error("final cleanup cut short after %s s", FINALIZE_TIMEOUT)
     return {t: outcomes[t] for t in objects if t in outcomes}

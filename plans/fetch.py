@@ -46,6 +46,7 @@ from executive import (
     a,
     an,
     current_environment,
+    kitchen,
     perform,
     register_resources,
     retry_scope,
@@ -66,6 +67,8 @@ from .navigation import back_off, park_clear
 from .search import arms_out_of_view, search_for_object
 
 __all__ = [
+    "FETCH_REGRASPS",
+    "FETCH_RELOCATIONS",
     "FETCH_RELOCATION_FAILURES",
     "FLOOR_HEIGHT",
     "FLOOR_SEARCH_OFFSETS",
@@ -77,8 +80,18 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: Below this height (m, map) an object lies on the floor.
-FLOOR_HEIGHT = 0.3
+# The retry budgets of ``fetching`` (CRAM HEAD's), each named once: the scopes below read
+# them, and the tables of this module's and :mod:`plans`' docstrings are checked against
+# them (tests/plans/test_retry_budgets.py). Its pick checks are
+# :data:`plans.checks.PICK_CHECKS`.
+#: The relocation scope: base poses tried.
+FETCH_RELOCATIONS = 10
+#: The regrasp scope: pick attempts again from the same base pose.
+FETCH_REGRASPS = 1
+
+#: Below this height (m, map) an object lies on the floor (the kitchen's, one name for
+#: every layer: :data:`executive.kitchen.FLOOR_HEIGHT`).
+FLOOR_HEIGHT = kitchen.FLOOR_HEIGHT
 #: Where :func:`search_floor` looks, around the object's last believed position (m, map
 #: x/y offsets; the spots are on the floor): there first, then 0.4 m around it.
 FLOOR_SEARCH_OFFSETS = ((0.0, 0.0), (-0.4, 0.0), (0.0, -0.4), (0.0, 0.4), (0.4, 0.0))
@@ -133,7 +146,7 @@ async def fetch(
         @retry_scope(
             FETCH_RELOCATION_FAILURES,
             base_poses,
-            CountedRetries(10, "relocations"),
+            CountedRetries(FETCH_RELOCATIONS, "relocations"),
             rethrow=unfetchable,
         )
         async def from_here() -> None:
@@ -145,7 +158,7 @@ async def fetch(
             @retry_scope(
                 GripperLowLevelFailure,
                 None,
-                CountedRetries(1, "regrasps"),
+                CountedRetries(FETCH_REGRASPS, "regrasps"),
                 before_retry=park_clear,
                 rethrow=lambda _f: ObjectUnreachable(object=object_label(object_designator)),
             )

@@ -26,7 +26,7 @@ DEMO_OBJECTS: Mapping[str, SceneObject] = {
         if t not in kitchen.DEMO_ATTACHMENTS
         else (t, kitchen.DEMO_POSES[t], kitchen.DEMO_ATTACHMENTS[t])
     )
-    for t in ("breakfast-cereal", "cup", "bowl", "milk", "spoon")
+    for t in kitchen.DEMO_POSES  # in CRAM's fixed scene's spawning order
 }
 
 

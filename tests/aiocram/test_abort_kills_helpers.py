@@ -20,7 +20,7 @@ _SCRIPT = textwrap.dedent(
     """
     import os, signal, sys, time
     from pathlib import Path
-    from aiocram import demo
+    from aiocram.demo import _outputs
     from aiocram._interrupt import Interrupts
     from aiocram._outputs import Outputs
 
@@ -46,7 +46,7 @@ _SCRIPT = textwrap.dedent(
     outputs = Outputs(out)
     with Interrupts() as interrupts:
         interrupts.on_abort = lambda: outputs.commit()
-        demo._write_pictures(outputs, None, None, Costmaps(), ["engine"], interrupts)
+        _outputs.write_pictures(outputs, None, None, Costmaps(), ["engine"], interrupts)
     sys.exit("not aborted")
     """
 )

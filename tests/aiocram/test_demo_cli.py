@@ -260,15 +260,24 @@ def test_bench_writes_to_out_not_the_tracked_file(tmp_path):
     assert bad.returncode == 2 and "--out" in bad.stderr
 
 
+def _command_running(plan, monkeypatch):
+    """``aiocram demo`` as the CLI runs it, with ``plan`` handed to its ``run_demo``."""
+    from functools import partial
+
+    from aiocram.demo import _cli, run_demo
+
+    monkeypatch.setattr(_cli, "run_demo", partial(run_demo, plan=plan))
+    return _cli
+
+
 def test_internal_errors_are_not_usage_errors(tmp_path, monkeypatch, capsys):
     """A ValueError raised inside the run is a bug: exit 3 with the traceback, not 2."""
-    import plans.demo
     from aiocram.cli import main
 
-    async def broken(*args, **kwargs):
+    async def broken(world, config):
         raise ValueError("a bug inside the plan")
 
-    monkeypatch.setattr(plans.demo, "table_setting", broken)
+    _command_running(broken, monkeypatch)
     code = main(["demo", "--objects", "cup", "--no-live", "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 3
@@ -299,7 +308,6 @@ def test_cleanup_failures_are_in_the_summary_and_plans_log(tmp_path, monkeypatch
     """A cleanup that raised in an evaporated branch is counted in the summary and logged
     (with its traceback) in plans.log."""
     import cpl
-    import plans.demo
     from aiocram.cli import main
 
     class Boom(cpl.PlanFailure):
@@ -315,14 +323,14 @@ def test_cleanup_failures_are_in_the_summary_and_plans_log(tmp_path, monkeypatch
         await cpl.sleep(1)
         raise Boom("a branch failed")
 
-    async def plan_with_broken_cleanup(*args, **kwargs):
+    async def plan_with_broken_cleanup(world, config):
         try:
             await cpl.par(cpl.tag("slow", slow), cpl.tag("fail", fail))
         except Boom:
             pass
         return {}
 
-    monkeypatch.setattr(plans.demo, "table_setting", plan_with_broken_cleanup)
+    _command_running(plan_with_broken_cleanup, monkeypatch)
     code = main(["demo", "--objects", "cup", "--no-live", "--out", str(tmp_path)])
     out = capsys.readouterr().out
     assert code == 1  # the stand-in plan neither delivers the cup nor reaches the cleanup

@@ -11,7 +11,7 @@ from rich.console import Console
 
 import cpl
 from aiocram.cli import main
-from aiocram.demo import DemoConfig, DemoReport, _print_report, outcome_table
+from aiocram.demo import DemoConfig, DemoReport, outcome_table, print_report
 from aiocram.truth import ObjectTruth, TruthReport
 from executive import ObjectNowhereToBeFound
 from plans.demo import ObjectOutcome
@@ -25,7 +25,7 @@ def _report(**kw) -> DemoReport:
     outcomes = {
         "bowl": ObjectOutcome("bowl", "bowl-1", True, None, {"regrasps": 1, "relocations": 1}),
         "cup": ObjectOutcome(
-            "cup", "cup-1", False, ObjectNowhereToBeFound("no cup"), {"detecting": 12}, 12.73
+            "cup", "cup-1", False, ObjectNowhereToBeFound("no cup"), {"detecting": 12}
         ),
         "milk": ObjectOutcome("milk", "milk-1", False, cpl.Evaporated("interrupted by Ctrl-C")),
         "breakfast-cereal": ObjectOutcome("breakfast-cereal", "breakfast-cereal-1", True),
@@ -50,6 +50,7 @@ def _report(**kw) -> DemoReport:
         {"bowl": 0.73, "cup": 1.13},
         {"bowl": 100.7, "cup": 54.7, "breakfast-cereal": 1034.1},
         truth=truth,
+        distances={"cup": 12.73},
     )
 
 
@@ -89,7 +90,7 @@ def test_violated_invariants_are_listed_one_per_line():
         violations={"no_object_lost": "cup-1 on the floor"},
     )
     buffer = io.StringIO()
-    _print_report(report, Console(file=buffer, width=80, color_system=None, _environ={}))
+    print_report(report, Console(file=buffer, width=80, color_system=None, _environ={}))
     lines = buffer.getvalue().splitlines()
     at = lines.index("invariants violated:")
     assert lines[at + 1 : at + 3] == [

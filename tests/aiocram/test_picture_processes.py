@@ -14,6 +14,7 @@ import pytest
 from aiocram import _figures, demo
 from aiocram._costmap_figure import _Use
 from aiocram._figures import CostmapRecorder
+from aiocram.demo import _outputs as demo_outputs
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
 
@@ -63,7 +64,7 @@ def single_threaded(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.mark.usefixtures("single_threaded")
 def test_the_child_is_another_process_and_leaves_nothing_to_clean_up(tmp_path: Path) -> None:
     mark = tmp_path / "child"
-    pid = demo._fork(lambda: mark.write_text(str(os.getpid())))
+    pid = demo_outputs._fork(lambda: mark.write_text(str(os.getpid())))
     assert pid is not None
     _, status = os.waitpid(pid, 0)
     assert status == 0
@@ -106,7 +107,7 @@ def test_a_failed_child_is_reported_and_the_parent_draws_its_pictures(
     monkeypatch.setattr(
         _figures, "write_scene", lambda world, path, camera, caption: path.write_text("scene")
     )
-    demo._write_pictures(_Outputs(tmp_path), None, _Camera(), _Costmaps(), [object()])
+    demo_outputs.write_pictures(_Outputs(tmp_path), None, _Camera(), _Costmaps(), [object()])
     sys.stderr.flush()
     err = capfd.readouterr().err
     assert "the child's figure failed" in err  # the child's traceback
@@ -135,7 +136,7 @@ def test_no_fork_while_other_threads_run(tmp_path: Path) -> None:
     other = threading.Thread(target=stop.wait)
     other.start()
     try:
-        assert demo._fork(lambda: None) is None
+        assert demo_outputs._fork(lambda: None) is None
     finally:
         stop.set()
         other.join()

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from aiocram import _costmap_figure, _figures, demo
+from aiocram import _costmap_figure, _figures
 from aiocram.cli import main
+from aiocram.demo import _outputs as demo_outputs
 from aiocram.testing import assert_picture_shows_something, picture_problems, picture_stats
 
 matplotlib.use("Agg")
@@ -114,7 +115,7 @@ def demo_run(
     out = tmp_path_factory.mktemp("demo") / "out"
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(_costmap_figure, "draw_costmap", reading)
-        mp.setattr(demo, "_fork", lambda work, adopt=None: None)
+        mp.setattr(demo_outputs, "_fork", lambda work, adopt=None: None)
         code = main(["demo", "--seed", "1", "--no-live", "--out", str(out)])
     assert code in (0, 1)  # 1 = an invariant violated: reported, not a crash
     yield out, drawn

@@ -264,24 +264,21 @@ def test_where_and_tilt(worlds):
 
 
 # ------------------------------------------------------------------ through the demo
-def _one_bowl():
+def _one_bowl(**plan):
     from aiocram.demo import DemoConfig, run_demo
 
-    return run_demo(DemoConfig(objects=("bowl",), seed=1, live=False))
+    return run_demo(DemoConfig(objects=("bowl",), seed=1, live=False), **plan)
 
 
-def test_demo_reports_a_task_the_plan_leaked(monkeypatch):
-    import plans.demo
+def test_demo_reports_a_task_the_plan_leaked():
+    from aiocram.demo import table_setting
 
-    real = plans.demo.table_setting
-
-    async def leaky(*args, **kwargs):
-        result = await real(*args, **kwargs)
+    async def leaky(world, config):
+        result = await table_setting(world, config)
         cpl.spawn(cpl.sleep(1e6), name="leaked-monitor")  # never joined
         return result
 
-    monkeypatch.setattr(plans.demo, "table_setting", leaky)
-    report = _one_bowl()
+    report = _one_bowl(plan=leaky)
     assert not report.invariants["no_task_leaked"]
     assert "leaked-monitor" in report.violations["no_task_leaked"]
 
@@ -309,20 +306,17 @@ def test_demo_reports_a_cleanup_that_had_to_park(monkeypatch):
     assert record["objects"]["bowl"]["claimed"] is True
 
 
-def test_demo_delivered_comes_from_the_true_world(monkeypatch):
+def test_demo_delivered_comes_from_the_true_world():
     """The plan claims the bowl placed; the true bowl is then knocked to the floor before
     the measurement: delivered 0, one phantom."""
-    import plans.demo
+    from aiocram.demo import table_setting
 
-    real = plans.demo.table_setting
-
-    async def knocked(world, *args, **kwargs):
-        result = await real(world, *args, **kwargs)
+    async def knocked(world, config):
+        result = await table_setting(world, config)
         world.set_object_pose("bowl-1", Pose((0.0, 1.6, 0.1)))
         return result
 
-    monkeypatch.setattr(plans.demo, "table_setting", knocked)
-    report = _one_bowl()
+    report = _one_bowl(plan=knocked)
     assert report.claimed == 1
     assert report.delivered == 0
     assert report.truth.phantoms == 1

@@ -92,10 +92,25 @@ def test_pick_and_place_walkthrough(mrun):
 
 
 def test_one_bowl_transport(mrun):
+    """The plan returns its outcomes and tells an observer as it goes (issue 24): one
+    transport of the bowl between ``TransportStarted`` and ``TransportEnded`` (the same
+    outcome record, final by then), then ``TransportsOver`` before its final cleanup."""
+    from plans.demo import TransportEnded, TransportsOver, TransportStarted
+
     world = projection.World(seed=1)
-    outcome = run_projected(mrun, world, plans.table_setting, world, ("bowl",), True, 1)
-    assert outcome["bowl"].success and outcome["bowl"].distance > 0
+    seen: list[tuple[str, Any]] = []
+
+    async def observed():
+        env = current_environment()
+        for kind in (TransportStarted, TransportEnded, TransportsOver):
+            env.subscribe(kind, lambda e: seen.append((type(e).__name__, e)))
+        return await plans.table_setting(world, ("bowl",), True, 1)
+
+    outcome = run_projected(mrun, world, observed)
+    assert outcome["bowl"].success
     assert on_island(world, "bowl-1") and world.attachments == {}
+    assert [kind for kind, _ in seen] == ["TransportStarted", "TransportEnded", "TransportsOver"]
+    assert seen[0][1].outcome is seen[1][1].outcome is outcome["bowl"]
 
 
 def settled_moves(world, names, steps: int = 300) -> dict[str, float]:
