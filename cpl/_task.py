@@ -44,6 +44,7 @@ from ._failure_handling import signal_failure
 from ._failures import Evaporated
 from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+from ._subtree import Subtree
 from ._timeline import current_time
 
 if TYPE_CHECKING:
@@ -108,6 +109,7 @@ class Task:
         arguments: dict[str, Any] | None = None,
         annotations: dict[str, Any] | None = None,
         parent: Task | None = None,
+        subtree: Subtree | None = None,
         _register: bool = True,
     ) -> None:
         if (
@@ -168,6 +170,10 @@ class Task:
         # for the whole tree: set on the root by top_level, inherited on adoption. None for
         # a task not (yet) in a run: it then reports to no instrument.
         self._run: Any = None
+        if subtree is not None:  # before adoption: the spawn hooks (event log) read it
+            if not isinstance(subtree, Subtree):
+                raise TypeError(f"a task's subtree mark is a cpl.Subtree, got {subtree!r}")
+            self._more().subtree = subtree
         if _register:
             owner = parent if parent is not None else CURRENT_TASK.get()
             if owner is not None:
@@ -256,6 +262,12 @@ class Task:
         if extras is None:
             extras = self._extras = _TaskExtras()
         return extras
+
+    @property
+    def subtree(self) -> Subtree | None:
+        """What this task's subtree stands for in reasoning (:class:`cpl.Subtree`), fixed
+        at creation; ``None`` for an ordinary task."""
+        return None if self._extras is None else self._extras.subtree
 
     @property
     def _constraints(self) -> list[Task] | None:
@@ -823,6 +835,7 @@ class _TaskExtras:
         "constraints",
         "resume",
         "status_fluent",
+        "subtree",
         "suspension_handlers",
         "waiters",
     )
@@ -838,6 +851,7 @@ class _TaskExtras:
         # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
         self.resume: asyncio.Future[None] | None = None
         self.suspension_handlers: list[Callable[[], Any]] | None = None
+        self.subtree: Subtree | None = None  # set once, at the task's creation
 
 
 class _Driver:
