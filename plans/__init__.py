@@ -42,6 +42,7 @@ from . import (
     transport,
 )
 from ._common import CountedRetries, retry_ledger
+from ._imagination import ImaginedRun, imagine
 from .checks import (
     PlacingPoseUnstable,
     check_environment_manipulation_collisions,
@@ -61,6 +62,7 @@ from .reasoning import (
 __all__ = [
     "CountedRetries",
     "Imagined",
+    "ImaginedRun",
     "ObjectOutcome",
     "PlacingPoseUnstable",
     "ProjectedParameters",
@@ -74,6 +76,7 @@ __all__ = [
     "environment",
     "environment_access",
     "fetch",
+    "imagine",
     "imagine_best",
     "navigation",
     "pick_best_parameters_by_distance",
