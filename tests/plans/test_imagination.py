@@ -28,7 +28,7 @@ from plans.reasoning import DEFAULT_RANKING, Ranking, with_projected_task_tree
 
 def _mover(x: float, *, fail: bool = False, retries: int = 0) -> Any:
     async def go() -> float:
-        world = current_environment().world
+        world: Any = current_environment().world  # the fakes' InMemoryWorld
         world.set_robot_pose(Pose((x, 0.0, 0.0)))
         counter = CountedRetries(retries, "relocations")
         for _ in range(retries):
