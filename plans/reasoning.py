@@ -40,6 +40,7 @@ from executive import (
     Environment,
     Key,
     LocationDesignator,
+    ObjectDesignator,
     ObjectInventory,
     Pose,
     RuleDoc,
@@ -52,11 +53,13 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached
 
+from ._designators import ROBOT
 from ._imagination import can_imagine, imagine, run_for_real
 
 __all__ = [
     "DEFAULT_RANKING",
     "Exploration",
+    "FetchAndDeliver",
     "ProjectedParameters",
     "Ranking",
     "RunAssessment",
@@ -87,6 +90,11 @@ class ProjectedParameters:
     #: in an imagined run: which alternative this run explores (see :class:`Exploration`);
     #: ``None`` in the real run and in a pass-through.
     exploration: Exploration | None = None
+    #: in an imagined run that explores a fetch and delivery (:class:`FetchAndDeliver`):
+    #: the arm to fetch with (``None``: the plan's own) and the placing target (``None``:
+    #: the plan's own); ``None`` in the real run, which follows ``pick_up_action``.
+    arm: str | None = None
+    target: LocationDesignator | None = None
 
 
 # --------------------------------------------------------------------------- exploring
@@ -242,6 +250,35 @@ class Exploration:
         bearing = math.degrees(_bearing(mine[0], around or (0.0, 0.0)))
         self.explored[key] = f"region {self.run}/{self.runs} ({bearing:+.0f}°)"
         return a.location(among=mine, then=designator)
+
+
+@dataclass(frozen=True)
+class FetchAndDeliver:
+    """What the imagined runs of a fetch and delivery explore (given to
+    :func:`with_projected_task_tree` by ``transport``, whose body never knows whether it
+    runs imagined or real): run ``i`` fetches ``object`` with :meth:`Exploration.arm`
+    from its region of the base poses from which the object is reachable
+    (``"pick base"``, bearings around the object) and places it at its region of
+    ``target``'s solutions (``"placing target"``); ``arm``: the caller's fixed arm.
+
+    Deliberate difference from CRAM: there the four variables are the only parameters
+    and every imagined run draws from the same designator chains."""
+
+    object: ObjectDesignator
+    target: LocationDesignator
+    arm: str | None = None
+
+    def alternative(self, exploration: Exploration) -> ProjectedParameters:
+        """The parameters of ``exploration``'s run (drawn in the imagined world)."""
+        arm = exploration.arm(self.arm)
+        spot = a.location(of_item_object=self.object.current().get("name")).reference()
+        reachable = a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=self.arm)
+        return ProjectedParameters(
+            fetch_robot_location=exploration.region("pick base", reachable, spot.position[:2]),
+            exploration=exploration,
+            arm=arm,
+            target=exploration.region("placing target", self.target),
+        )
 
 
 def to_pose(value: Any) -> Pose:
@@ -581,6 +618,7 @@ async def with_projected_task_tree(
     enabled: bool = True,
     subject: str | None = None,
     ranking: Ranking = DEFAULT_RANKING,
+    explore: FetchAndDeliver | None = None,
 ) -> T:
     """Imagine ``body`` ``runs`` times, then run it for real with the picked parameters
     (CRAM's ``with-projected-task-tree``), on the imagination engine
@@ -589,10 +627,13 @@ async def with_projected_task_tree(
     Pass-through (``body(ProjectedParameters())`` once, no subtrees) when ``enabled`` is
     false, the current environment is ``projecting``, or it has no ``imagination``.
     Otherwise: snapshot the belief world; in the imagination's projection environment, for
-    each run ``i`` restore the snapshot and run ``body(ProjectedParameters(exploration=
-    Exploration(i, runs, pools)))`` as the subtree ``projection-run-<i>`` (marked
-    :attr:`cpl.Subtree.IMAGINED`; the body draws its own alternative through
-    :class:`Exploration`); a plan failure or designator error ends that run only (its
+    each run ``i`` restore the snapshot and run ``body(params)`` as the subtree
+    ``projection-run-<i>`` (marked :attr:`cpl.Subtree.IMAGINED`), where ``params`` is
+    ``explore.alternative(Exploration(i, runs, pools))`` (the run's own arm, pick base
+    region and placing target region, drawn in the imagined world; see
+    :class:`FetchAndDeliver`) or, without ``explore``,
+    ``ProjectedParameters(exploration=Exploration(i, runs, pools))`` for a body that draws
+    its own alternative; a plan failure or designator error ends that run only (its
     subtree is FAILED). Before the world is restored each run is assessed
     (:func:`assess_run` with ``ranking``: outcome, neighbours moved, ``subject`` unstable,
     retries, route cost) and the assessment annotated on its subtree as ``"assessment"``.
@@ -623,8 +664,8 @@ async def with_projected_task_tree(
     def alternatives() -> Iterator[tuple[str, Callable[[], Awaitable[T]]]]:
         for i in range(1, runs + 1):
             name = f"projection-run-{i}"
-            given = ProjectedParameters(exploration=Exploration(i, runs, pools))
-            yield name, _watching(body, given, watched.setdefault(name, _Watched()))
+            exploration = Exploration(i, runs, pools)
+            yield name, _watching(body, exploration, explore, watched.setdefault(name, _Watched()))
 
     async with aclosing(imagine(imagination, alternatives())) as imagined:
         async for run in imagined:
@@ -679,18 +720,24 @@ class _Watched:
 
 def _watching(
     body: Callable[[ProjectedParameters], Awaitable[T]],
-    given: ProjectedParameters,
+    exploration: Exploration,
+    explore: FetchAndDeliver | None,
     seen: _Watched,
 ) -> Callable[[], Awaitable[T]]:
-    """``body(given)`` as an imagined run that notes in ``seen`` the object poses it began
-    with and where the imagined robot's base stood at every grasp and release."""
+    """``body`` as the imagined run that explores ``exploration``: it notes in ``seen`` the
+    parameters it was given, the object poses it began with and where the imagined
+    robot's base stood at every grasp and release."""
 
     async def run() -> T:
         dream = current_environment()
         world = dream.world
-        seen.given = given
         seen.names = _scene_names(world)
         seen.before = _object_poses(world, seen.names)
+        given = seen.given = (
+            explore.alternative(exploration)
+            if explore is not None
+            else ProjectedParameters(exploration=exploration)
+        )
 
         def attached(_event: ObjectAttached) -> None:
             seen.bases["pick"] = world.robot_pose()
