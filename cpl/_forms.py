@@ -40,7 +40,7 @@ from ._failures import CompositeFailure, PlanFailure
 from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
 from ._subtree import Subtree
-from ._task import Task, _require_task, as_coroutine, join_owned, run_joined
+from ._task import FormNode, Task, _require_task, as_coroutine, join_owned, run_joined
 
 __all__ = [
     "AllSucceed",
@@ -347,7 +347,7 @@ async def _parallel(policy: ParallelPolicy, branches: Sequence[Branch]) -> Any:
         for b in branches:
             _close(b)
         raise
-    node = Task(None, kind, kind=kind, parent=owner)
+    node = FormNode(policy, owner)
     node._begin_form()
     tasks: list[Task] = []
     try:
