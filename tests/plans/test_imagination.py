@@ -160,3 +160,57 @@ def test_a_ranking_with_a_bad_number_is_refused_naming_the_field(bad: dict[str, 
     (field,) = bad
     with pytest.raises(ValueError, match=f"Ranking.{field}"):
         Ranking(**bad)
+
+
+# ------------------------------------------------------------------- the transport body
+def test_the_macro_draws_each_runs_alternative_and_the_body_only_takes_parameters():
+    """What the imagined runs explore is declared to the macro (``FetchAndDeliver``): each
+    imagined run's body is handed its own arm, pick base region and placing target; the
+    real run's body gets the chosen run's parameters and no exploration at all."""
+    from executive import a, an
+    from plans.reasoning import FetchAndDeliver, ProjectedParameters
+
+    _world, real, _dream, imagination = setup()
+    given: list[tuple[bool, ProjectedParameters]] = []
+    target = a.location(spots=5)
+
+    async def main() -> Any:
+        found = await perform(
+            an.action(type="searching", object=an.object(type="cup"), location=a.location(spots=1))
+        )
+
+        async def body(params: ProjectedParameters) -> Any:
+            me = cpl.current_task()
+            assert me is not None
+            given.append((cpl.within(me, cpl.Subtree.IMAGINED), params))
+            fetched = await perform(
+                an.action(
+                    type="fetching",
+                    object=found,
+                    arm=params.arm,
+                    robot_location=params.fetch_robot_location,
+                    pick_up_action=params.pick_up_action,
+                )
+            )
+            return await perform(
+                an.action(
+                    type="delivering",
+                    object=fetched,
+                    target=params.target if params.target is not None else target,
+                    robot_location=params.deliver_robot_location,
+                    place_action=params.place_action,
+                )
+            )
+
+        return await with_projected_task_tree(body, 3, explore=FetchAndDeliver(found, target))
+
+    run_real(real, imagination, main)
+    imagined = [p for dreaming, p in given if dreaming]
+    (real_params,) = [p for dreaming, p in given if not dreaming]
+    assert [p.arm for p in imagined] == [None, "left", "right"]
+    assert all(p.fetch_robot_location is not None and p.target is not None for p in imagined)
+    assert [p.exploration.run for p in imagined if p.exploration] == [1, 2, 3]
+    # the real run: the chosen run's base poses and actions, nothing explored
+    assert real_params.exploration is None and real_params.arm is None
+    assert real_params.target is None and real_params.fetch_robot_location is not None
+    assert real_params.place_action is not None
