@@ -13,7 +13,7 @@ the real robot's *true* base took:
 - :func:`floor_plan_figure` draws, in metres, the kitchen furniture, that route, and per
   transport (one colour each) every imagined run's pick base (circle) and place base
   (square), the chosen run's ringed in black, and the true base at pick and place
-  (crosses; recorded by the truth observer, see :data:`plans.reasoning.TRUE_BASES`).
+  (crosses; recorded by the truth observer, see :data:`aiocram.fidelity.TRUE_BASES`).
 
 Every plotted point set carries a ``gid`` (``route``, ``imagined-K-RUN-pick``,
 ``imagined-K-RUN-place``, ``chosen-K-pick`` ..., ``true-K-pick`` ...; ``K`` the transport's

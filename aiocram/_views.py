@@ -6,8 +6,8 @@ terminal: a progress line (object k of n, its name, simulated and wall time), th
 path (the chain of running tasks from the root to the deepest one, each with the action
 type and the object it is about, so the object's name is never cut off behind a long
 designator), and the failures of the current object folded into one line per kind with a
-count. Failures inside imagined runs (``projection-run-*``) are not the robot's: they are
-left out of the counts.
+count. Failures inside imagined runs (subtrees marked :attr:`cpl.Subtree.IMAGINED`) are
+not the robot's: they are left out of the counts.
 
 :func:`final_tree` is the tree printed after the run: the root (finished), one line per
 top-level step, each step's failures folded the same way.
@@ -31,15 +31,16 @@ from cpl.display import STATUS_STYLES, LiveTaskTree, format_duration
 
 __all__ = ["DemoView", "Progress", "brief", "final_tree", "fold_failures"]
 
-#: subtrees that only run in imagination: projection reasoning's runs and the
-#: alternatives of ``plans.imagine_best`` (e.g. the search's imagined viewpoints)
-_IMAGINED = ("projection-run", "imagine-")
 _NUMBERED = re.compile(r"#\d+$")
 
 
 def imagined(task: Any) -> bool:
-    """Whether ``task`` runs inside an imagined (projection) run."""
-    return any(p.startswith(_IMAGINED) for p in task.path)
+    """Whether ``task`` runs inside an imagined (projection) run: a subtree marked
+    :attr:`cpl.Subtree.IMAGINED` (projection reasoning's runs and the alternatives of
+    ``plans.imagine_best``, e.g. the search's imagined viewpoints). A recorded node
+    (:class:`cpl.TaskNode`) knows no parent: walk recorded trees with :func:`_walk`, which
+    leaves imagined subtrees out."""
+    return cpl.within(task, cpl.Subtree.IMAGINED)
 
 
 #: In a recorded tree (:class:`cpl.TaskNode`) the designator is its text:
@@ -95,9 +96,12 @@ def brief(task: Any) -> str:
 
 
 def _walk(task: Any) -> Iterator[Any]:
+    """``task`` and its descendants in pre-order, imagined subtrees left out."""
     stack = [task]
     while stack:
         t = stack.pop()
+        if cpl.subtree_of(t) is cpl.Subtree.IMAGINED:
+            continue
         yield t
         stack.extend(reversed(t.children))
 
@@ -199,7 +203,7 @@ def running_path(root: Any) -> list[Any]:
         alive = [c for c in node.children if c.alive]
         if not alive:
             return path
-        real = [c for c in alive if not c.path_entry.startswith(_IMAGINED)]
+        real = [c for c in alive if cpl.subtree_of(c) is not cpl.Subtree.IMAGINED]
         node = (real or alive)[-1]
         path.append(node)
 

@@ -1,9 +1,10 @@
 """What projection reasoning imagined, chose and how well it predicted (issue 14).
 
 Read from a finished task tree: for every real ``transporting`` task (not one inside an
-imagined run), its ``real-run`` subtree carries the assessments of the imagined runs
-(``"imagined"``), the winner (``"chosen"``, ``"why"``) and, once the real run ended, the
-:class:`plans.reasoning.Fidelity` record (``"fidelity"``). :func:`foresight_records`
+imagined run), its real-run subtree (marked :attr:`cpl.Subtree.REAL`) carries the
+assessments of the imagined runs (``"imagined"``) and the winner (``"chosen"``, ``"why"``);
+once the real run ended, :func:`aiocram.fidelity.fidelity_of` measures its
+:class:`aiocram.fidelity.Fidelity`. :func:`foresight_records`
 turns those into JSON rows (the demo's report and the campaign's runs carry them),
 :func:`print_foresight` prints them per transport, :func:`fidelity_summary` aggregates a
 campaign group's rows (the prediction agreed with the real outcome; how far the real base
@@ -34,15 +35,12 @@ def _xyyaw(pose: Any) -> list[float] | None:
     ]
 
 
-_IMAGINED_PREFIXES = ("projection-run-", "imagine-")
-
-
 def _real_tasks(task: cpl.Task) -> Iterator[cpl.Task]:
     """Every task of the tree outside imagined subtrees."""
     stack = [task]
     while stack:
         t = stack.pop()
-        if t.name.startswith(_IMAGINED_PREFIXES):
+        if t.subtree is cpl.Subtree.IMAGINED:
             continue
         yield t
         stack.extend(reversed(t.children))
@@ -52,17 +50,18 @@ def foresight_records(root: cpl.Task) -> list[dict[str, Any]]:
     """One JSON row per real transport that imagined: object type, the imagined runs
     (name, prediction, cost, what each explored), the chosen run and why, the fidelity."""
     from executive import action_of
-    from plans.reasoning import TRUE_BASES
+
+    from .fidelity import TRUE_BASES, fidelity_of
 
     rows: list[dict[str, Any]] = []
     for task in _real_tasks(root):
         action = action_of(task)
         if action is None or action.type != "transporting":
             continue
-        for real in (c for c in task.children if c.name == "real-run"):
+        for real in (c for c in task.children if c.subtree is cpl.Subtree.REAL):
             notes = real.annotations or {}
             imagined = notes.get("imagined", ())
-            fidelity = notes.get("fidelity")
+            fidelity = fidelity_of(real)
             obj = action.get("object")
             rows.append(
                 {

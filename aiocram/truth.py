@@ -256,8 +256,8 @@ class TruthObserver:
     # -- during the run ----------------------------------------------------------
     def subscribe(self, env: Any) -> Callable[[], None]:
         """Record where the belief has each object when it is released, and annotate each
-        ``real-run`` of projection reasoning with the true robot's base pose at its pick and
-        place (:func:`plans.reasoning.watch_bases`, for the projection fidelity)."""
+        real run of projection reasoning with the true robot's base pose at its pick and
+        place (:func:`aiocram.fidelity.watch_bases`, for the projection fidelity)."""
         from executive.events import ObjectDetached, object_name
 
         def released(event: ObjectDetached) -> None:
@@ -268,7 +268,7 @@ class TruthObserver:
                 return  # an object the belief does not know: no placing pose
             self.released_at[name] = tuple(float(v) for v in pose.position)  # type: ignore[assignment]
 
-        from plans.reasoning import watch_bases
+        from .fidelity import watch_bases
 
         undo = [
             env.subscribe(ObjectDetached, released),

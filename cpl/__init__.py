@@ -61,6 +61,7 @@ from ._policies import (
 from ._queries import ancestors, find_tasks, previous_sibling, walk
 from ._runtime import RunHistory, RunTimeout, run, task_tree, top_level
 from ._status import Status
+from ._subtree import Subtree, subtree_of, within
 from ._suspension import on_suspension, with_task_suspended
 from ._tags import Tags, with_tags
 from ._task import Task, current_task, spawn, with_task
@@ -92,6 +93,7 @@ __all__ = [
     "RunTimeout",
     "ScaledClock",
     "Status",
+    "Subtree",
     "SystemClock",
     "Tagged",
     "Tags",
@@ -130,6 +132,7 @@ __all__ = [
     "sleep",
     "snapshot",
     "spawn",
+    "subtree_of",
     "tag",
     "task_alive",
     "task_dead",
@@ -154,6 +157,7 @@ __all__ = [
     "with_tags",
     "with_task",
     "with_task_suspended",
+    "within",
 ]
 
 

@@ -69,6 +69,13 @@ def _record_json(fields: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in full.items() if v is not None and v != {}}
 
 
+def _subtree_json(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """``{"subtree": "imagined"}`` for a marked reasoning subtree (:class:`cpl.Subtree`);
+    nothing for an ordinary task (its line is as before the mark existed)."""
+    mark = fields["subtree"]
+    return {} if mark is None else {"subtree": mark.value}
+
+
 class EventLog(Instrument):
     """Instrument that writes a run's events as JSON lines.
 
@@ -162,6 +169,7 @@ class EventLog(Instrument):
                 "parent": None,
                 "name": fields["name"],
                 "kind": fields["kind"],
+                **_subtree_json(fields),
                 **({"arguments": fields["arguments"]} if fields["arguments"] else {}),
                 **_record_json(fields),
             }
@@ -185,6 +193,7 @@ class EventLog(Instrument):
             "parent": list(parent_path) if parent_path is not None else None,
             "name": fields["name"],
             "kind": fields["kind"],
+            **_subtree_json(fields),
             **({"arguments": fields["arguments"]} if fields["arguments"] else {}),
             **_record_json(fields),
         }
@@ -480,6 +489,7 @@ def tree_from_log(
             record = records[path]
             record["name"] = ev.get("name", path[-1] if path else "")
             record["kind"] = ev.get("kind", "task")
+            record["subtree"] = ev.get("subtree")
             record["arguments"] = ev.get("arguments") or {}
         elif path not in records:
             raise ValueError(

@@ -39,7 +39,8 @@ from ._failure_handling import handled, handling, signal_failure
 from ._failures import CompositeFailure, PlanFailure
 from ._scheduling import DeferredCancellation, block_until
 from ._status import Status
-from ._task import Task, _require_task, as_coroutine, join_owned, run_joined
+from ._subtree import Subtree
+from ._task import FormNode, Task, _require_task, as_coroutine, join_owned, run_joined
 
 __all__ = [
     "AllSucceed",
@@ -68,16 +69,27 @@ class Tagged:
     """A branch with a name in the task tree (``cpl.tag(name, aw)``). Awaiting it runs ``aw``
     as a child task of that name and joins it; a form runs it as the branch task itself."""
 
-    __slots__ = ("aw", "name")
+    __slots__ = ("aw", "name", "subtree")
 
-    def __init__(self, name: str, aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> None:
+    def __init__(
+        self,
+        name: str,
+        aw: Awaitable[Any] | Callable[[], Awaitable[Any]],
+        subtree: Subtree | None = None,
+    ) -> None:
         if not isinstance(name, str) or not name:
             raise TypeError(f"a tag name is a non-empty string, got {name!r}")
+        if subtree is not None and not isinstance(subtree, Subtree):
+            raise TypeError(
+                f"cpl.tag({name!r}, ...): subtree is a cpl.Subtree (IMAGINED, REAL, CHOSEN) "
+                f"or None, got {subtree!r}"
+            )
         self.name = name
         self.aw = aw
+        self.subtree = subtree  # what the branch stands for in reasoning (None: nothing)
 
     def make_task(self, parent: Task) -> Task:
-        return Task(self.aw, self.name, kind="tag", parent=parent)
+        return Task(self.aw, self.name, kind="tag", parent=parent, subtree=self.subtree)
 
     def close(self) -> None:
         _close(self.aw)
@@ -88,10 +100,15 @@ class Tagged:
         return run_joined(child).__await__()
 
 
-def tag(name: str, aw: Awaitable[Any] | Callable[[], Awaitable[Any]]) -> Tagged:
+def tag(
+    name: str, aw: Awaitable[Any] | Callable[[], Awaitable[Any]], *, subtree: Subtree | None = None
+) -> Tagged:
     """Name a branch in the task tree. ``await cpl.tag("w1", work())`` runs ``work()`` as a
-    child task ``w1`` and joins it; forms accept tagged branches as named branches."""
-    return Tagged(name, aw)
+    child task ``w1`` and joins it; forms accept tagged branches as named branches.
+    ``subtree`` marks what the branch stands for in reasoning (:class:`cpl.Subtree`: an
+    imagined run, the real run, the chosen alternative): readers of the tree go by it,
+    never by the name."""
+    return Tagged(name, aw, subtree)
 
 
 def _close(aw: Any) -> None:
@@ -330,7 +347,7 @@ async def _parallel(policy: ParallelPolicy, branches: Sequence[Branch]) -> Any:
         for b in branches:
             _close(b)
         raise
-    node = Task(None, kind, kind=kind, parent=owner)
+    node = FormNode(policy, owner)
     node._begin_form()
     tasks: list[Task] = []
     try:

@@ -38,12 +38,13 @@ import asyncio
 import inspect
 from collections.abc import Awaitable, Callable, Coroutine, Generator
 from types import CoroutineType
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn, Protocol
 
 from ._failure_handling import signal_failure
 from ._failures import Evaporated
 from ._scheduling import CURRENT_TASK, DeferredCancellation, block_until
 from ._status import LEGAL_TRANSITIONS, Status
+from ._subtree import Subtree
 from ._timeline import current_time
 
 if TYPE_CHECKING:
@@ -108,6 +109,7 @@ class Task:
         arguments: dict[str, Any] | None = None,
         annotations: dict[str, Any] | None = None,
         parent: Task | None = None,
+        subtree: Subtree | None = None,
         _register: bool = True,
     ) -> None:
         if (
@@ -168,6 +170,10 @@ class Task:
         # for the whole tree: set on the root by top_level, inherited on adoption. None for
         # a task not (yet) in a run: it then reports to no instrument.
         self._run: Any = None
+        if subtree is not None:  # before adoption: the spawn hooks (event log) read it
+            if not isinstance(subtree, Subtree):
+                raise TypeError(f"a task's subtree mark is a cpl.Subtree, got {subtree!r}")
+            self._more().subtree = subtree
         if _register:
             owner = parent if parent is not None else CURRENT_TASK.get()
             if owner is not None:
@@ -256,6 +262,12 @@ class Task:
         if extras is None:
             extras = self._extras = _TaskExtras()
         return extras
+
+    @property
+    def subtree(self) -> Subtree | None:
+        """What this task's subtree stands for in reasoning (:class:`cpl.Subtree`), fixed
+        at creation; ``None`` for an ordinary task."""
+        return None if self._extras is None else self._extras.subtree
 
     @property
     def _constraints(self) -> list[Task] | None:
@@ -417,19 +429,42 @@ class Task:
             self._close_aw()
         await self._after_body(outcome, reraise)
 
-    def _ended_by(self, exc: BaseException) -> tuple[Status, BaseException | None]:
-        """How a body (on its own asyncio task) that raised ``exc`` ends: the outcome, and
-        what to re-raise after the finish. Records the failure or the evaporation."""
+    def _ended_by(
+        self, exc: BaseException, inline_parent: Task | None = None
+    ) -> tuple[Status, BaseException | None]:
+        """How a body that raised ``exc`` ends: the outcome, and what to re-raise after the
+        finish; records the failure or the evaporation. The one classification of the
+        three ways a body runs (:meth:`_main`, :class:`_Driver` on the task's own asyncio
+        task; :meth:`_run_inline` in ``inline_parent``'s asyncio task, shared down a
+        chain of inline tasks, whose cancel requests it must take back).
+
+        - a ``CancelledError`` after :meth:`evaporate`: EVAPORATED. Inline, the
+          evaporation's cancel request is consumed (``uncancel``) and the cancellation
+          goes on only if the shared asyncio task was cancelled for someone else too;
+        - a ``CancelledError`` while the asyncio task is being cancelled without an
+          evaporation: EVAPORATED and re-raised, from outside cpl (own task) or for an
+          ancestor (inline: its parent was evaporated);
+        - any other exception, a foreign ``CancelledError`` (an awaited future was
+          cancelled: not ours to swallow) included: FAILED with it; ``KeyboardInterrupt``
+          and ``SystemExit`` are re-raised after the finish too.
+        """
         if isinstance(exc, asyncio.CancelledError):
-            atask = self._atask
+            host = self._atask
             if self.evaporation is not None:
-                return _EVAPORATED, None
-            if atask is not None and atask.cancelling():
-                # Someone cancelled our asyncio task directly: evaporation from outside.
-                self.evaporation = Evaporated("cancelled outside cpl", None)
+                if inline_parent is None or host is None:
+                    return _EVAPORATED, None
+                host.uncancel()  # our own evaporation's cancel request, consumed here
+                # the parent (or the asyncio task) was cancelled too: that goes on
+                return _EVAPORATED, exc if host.cancelling() else None
+            if host is not None and host.cancelling():
+                if inline_parent is None:
+                    # Someone cancelled our asyncio task directly: evaporation from outside.
+                    self.evaporation = Evaporated("cancelled outside cpl", None)
+                else:
+                    # The shared asyncio task was cancelled for an ancestor (or from
+                    # outside): this task dies with it.
+                    self.evaporation = Evaporated("its parent was evaporated", inline_parent.path)
                 return _EVAPORATED, exc
-            # A CancelledError we did not ask for (an awaited future was cancelled): not
-            # ours to swallow. The task fails with it; joiners re-raise it.
         self.failure = exc
         if isinstance(exc, (KeyboardInterrupt, SystemExit)):
             return _FAILED, exc
@@ -473,31 +508,11 @@ class Task:
             if self._suspend_requested:
                 await self._suspend_here()
             self.result = await self._take_body()
-        except asyncio.CancelledError as exc:
-            if self.evaporation is not None:
-                outcome = _EVAPORATED
-                host.uncancel()  # our own evaporation's cancel request, consumed here
-                if host.cancelling():
-                    reraise = exc  # the parent (or the asyncio task) was cancelled too
-            elif host.cancelling():
-                # The shared asyncio task was cancelled for an ancestor (or from outside):
-                # this task dies with it.
-                self.evaporation = Evaporated("its parent was evaporated", parent.path)
-                outcome = _EVAPORATED
-                reraise = exc
-            else:
-                outcome = _FAILED  # a foreign CancelledError: not ours to swallow
-                self.failure = exc
         except GeneratorExit:
             self._close_aw()
             raise
-        except (KeyboardInterrupt, SystemExit) as exc:
-            outcome = _FAILED
-            self.failure = exc
-            reraise = exc
         except BaseException as exc:
-            outcome = _FAILED
-            self.failure = exc
+            outcome, reraise = self._ended_by(exc, parent)
         finally:
             self._close_aw()
         if self.evaporation is not None and outcome is not _EVAPORATED and host.cancelling():
@@ -652,7 +667,7 @@ class Task:
             by = caller.path if caller is not None else None
         self.evaporation = Evaporated(reason, by)
         if self._atask is None:
-            if self.kind in _FORM_KINDS:
+            if isinstance(self, FormNode):
                 return  # a form node ends with its form
             # Never started: it dies without running.
             self._close_aw()
@@ -679,7 +694,7 @@ class Task:
         ``join``, form boundaries, ``perform``). A dead task returns at once; suspending a
         suspended task is a no-op (CRAM asserts)."""
         for node in self._subtree():
-            if node._state not in _DEAD and node.kind not in _FORM_KINDS:
+            if node._state not in _DEAD and not isinstance(node, FormNode):
                 if node._state is not _SUSPENDED:
                     node._suspend_requested = True
                     blocked = node._blocked_on
@@ -687,7 +702,7 @@ class Task:
                         blocked.set_result(None)
         me = CURRENT_TASK.get()
         for node in list(self._subtree()):
-            if node is me or node.kind in _FORM_KINDS:
+            if node is me or isinstance(node, FormNode):
                 continue
             while node._state is not _SUSPENDED and node._state not in _DEAD:
                 if not node._suspend_requested:
@@ -792,9 +807,6 @@ class Task:
         return f"<cpl.Task {'/'.join(self.path)} {self._state.name}>"
 
 
-_FORM_KINDS = frozenset({"par", "pursue", "try-all", "par-loop", "partial-order"})
-
-
 async def wait_dead(tasks: list[Task]) -> None:
     """Wait until every task in ``tasks`` is dead, surviving cancellation: a cancellation
     that arrives meanwhile is re-raised once all are dead (cleanup is never cut short; see
@@ -814,6 +826,28 @@ async def wait_dead(tasks: list[Task]) -> None:
         deferred.close()
 
 
+class _FormPolicy(Protocol):
+    """What a form node reads from its form's policy (e.g. ``cpl.ParallelPolicy``)."""
+
+    @property
+    def kind(self) -> str: ...
+
+
+class FormNode(Task):
+    """The node of a form (``par``, ``pursue``, ``try_all``, ``par_loop``,
+    ``partial_order``) in the task tree. It has no body and no asyncio task of its own:
+    the form's code runs in the task that called the form and drives the node's status
+    (``_begin_form`` / ``_end_form``), so the node is never started, evaporated on its own
+    nor suspended (its branches are). Its kind is its policy's (``policy.kind``, e.g.
+    ``"par"``); it is told apart from other tasks by its type, not by that name."""
+
+    __slots__ = ()
+
+    def __init__(self, policy: _FormPolicy, parent: Task) -> None:
+        kind = policy.kind
+        super().__init__(None, kind, kind=kind, parent=parent)
+
+
 class _TaskExtras:
     """The parts of a task that few tasks use, kept apart so that a task without them is
     smaller (see ``Task._extras``)."""
@@ -823,6 +857,7 @@ class _TaskExtras:
         "constraints",
         "resume",
         "status_fluent",
+        "subtree",
         "suspension_handlers",
         "waiters",
     )
@@ -838,6 +873,7 @@ class _TaskExtras:
         # Invariant: set only while the task is SUSPENDED; resolving it wakes the task.
         self.resume: asyncio.Future[None] | None = None
         self.suspension_handlers: list[Callable[[], Any]] | None = None
+        self.subtree: Subtree | None = None  # set once, at the task's creation
 
 
 class _Driver:

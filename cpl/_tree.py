@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ._status import Status
+from ._subtree import Subtree
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
@@ -263,6 +264,8 @@ class TaskNode:
     children: tuple[TaskNode, ...] = ()
     collapsed: int = 0
     truncated: int = 0
+    #: what the subtree stands for in reasoning (:class:`cpl.Subtree`), else ``None``
+    subtree: Subtree | None = None
 
     # ----------------------------------------------------------------- helpers
 
@@ -355,6 +358,7 @@ class TaskNode:
             self.waiting_on,
             self.collapsed,
             self.truncated,
+            self.subtree,
             len(self.children),
         )
 
@@ -418,6 +422,7 @@ class TaskNode:
                     "waiting_on": node.waiting_on,
                     "collapsed": node.collapsed,
                     "truncated": node.truncated,
+                    "subtree": node.subtree.value if node.subtree is not None else None,
                 }
             )
             stack.extend((c, index) for c in reversed(node.children))
@@ -475,6 +480,7 @@ def _node_from_record(item: Mapping[str, Any], children: tuple[TaskNode, ...]) -
             children=children,
             collapsed=int(item.get("collapsed", 0)),
             truncated=int(item.get("truncated", 0)),
+            subtree=Subtree.parse(item.get("subtree")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"malformed task record {dict(item)!r}: {exc!r}") from exc
@@ -503,6 +509,7 @@ def task_fields(task: TaskLike, path: tuple[str, ...] | None = None) -> dict[str
         "name": task.name,
         "path": tuple(task.path) if path is None else path,
         "kind": task.kind,
+        "subtree": getattr(task, "subtree", None),
         "status": state,
         "start_time": task.start_time,
         "end_time": task.end_time,

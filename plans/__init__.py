@@ -45,6 +45,7 @@ from . import (
     transport,
 )
 from ._common import CountedRetries, retry_ledger
+from ._imagination import ImaginedRun, imagine
 from .checks import (
     PlacingPoseUnstable,
     check_environment_manipulation_collisions,
@@ -64,6 +65,7 @@ from .reasoning import (
 __all__ = [
     "CountedRetries",
     "Imagined",
+    "ImaginedRun",
     "ObjectOutcome",
     "PlacingPoseUnstable",
     "ProjectedParameters",
@@ -77,6 +79,7 @@ __all__ = [
     "environment",
     "environment_access",
     "fetch",
+    "imagine",
     "imagine_best",
     "navigation",
     "pick_best_parameters_by_distance",

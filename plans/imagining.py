@@ -4,11 +4,14 @@ Projection beyond one transport (CRAM projects only inside ``transporting``): a 
 would otherwise make a choice by fixed order hands :func:`imagine_best` its alternatives,
 each a zero-argument coroutine function (any ``cpl`` form, a ``perform``, a plan). In the
 environment's imagination each runs once, from the same snapshot of the belief world, as
-the subtree ``imagine-<name>``; every one is summarised as an :class:`Imagined` (outcome,
-retries, simulated duration, how far the robot drove), annotated on its subtree; ``score``
-ranks them (smaller is better; default :func:`by_success_then_time`) and the best one
-runs for real as the subtree ``chosen-<name>``, annotated with all the summaries and the
-winner. Its value or failure is the result.
+the subtree ``imagine-<name>`` (marked :attr:`cpl.Subtree.IMAGINED`); every one is
+summarised as an :class:`Imagined` (outcome, retries, simulated duration, how far the
+robot drove), annotated on its subtree; ``score`` ranks them (smaller is better; default
+:func:`by_success_then_time`) and the best one runs for real as the subtree
+``chosen-<name>`` (marked :attr:`cpl.Subtree.CHOSEN`), annotated with all the summaries
+and the winner. Its value or failure is the result.
+
+Both run on the imagination engine (:func:`plans.imagine`).
 
 Pass-through (the first alternative runs as ``chosen-<name>``, nothing imagined) when
 ``enabled`` is false, the environment is already projecting (so reasoning inside
@@ -25,21 +28,19 @@ Example (the demo's order of transports)::
 from __future__ import annotations
 
 import contextvars
-import logging
 import math
 from collections.abc import Awaitable, Callable, Mapping
+from contextlib import aclosing
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import cpl
-from executive import DesignatorError, current_environment
+from executive import current_environment
 from executive.events import RobotStateChanged
 
-from ._common import retry_ledger
+from ._imagination import ImaginedRun, can_imagine, imagine, run_for_real
 
 __all__ = ["Imagined", "by_success_then_time", "imagine_best", "imagining"]
-
-log = logging.getLogger("plans.imagining")
 
 T = TypeVar("T")
 
@@ -103,79 +104,60 @@ async def imagine_best(
         if not callable(fn):
             raise ValueError(f"imagine_best: alternative {name!r} is not callable: {fn!r}")
     names = list(alternatives)
-    env = current_environment()
-    imagination = env.imagination
-    if not enabled or env.projecting or imagination is None or len(names) == 1:
+    imagination = can_imagine(enabled)
+    if imagination is None or len(names) == 1:
         return await _chosen(names[0], alternatives[names[0]], (), "pass-through")
-    snapshot = imagination.snapshot()
     results: list[Imagined] = []
-    try:
-        with retry_ledger():
-            async with imagination.projection():
-                dream = current_environment()
-                for name in names:
-                    imagination.restore(snapshot)
-                    results.append(await _imagine(name, alternatives[name], dream))
-    finally:
-        imagination.restore(snapshot)
+    driven: dict[str, float] = {}
+    runs = ((f"imagine-{n}", _watched(n, alternatives[n], driven)) for n in names)
+    async with aclosing(imagine(imagination, runs)) as imagined:
+        async for run in imagined:
+            results.append(_summary(run, names[len(results)], driven))
     best = min(range(len(results)), key=lambda i: (score(results[i]), i))
     winner = names[best]
     reason = "; ".join(r.line() for r in results)
     return await _chosen(winner, alternatives[winner], tuple(results), reason)
 
 
-async def _imagine(name: str, fn: Callable[[], Awaitable[Any]], dream: Any) -> Imagined:
-    driven = [0.0]
-    last = [dream.world.robot_pose() if dream.has_world else None]
+def _watched(
+    name: str, fn: Callable[[], Awaitable[T]], driven: dict[str, float]
+) -> Callable[[], Awaitable[T]]:
+    """``fn`` run as the imagined alternative ``name``: :func:`imagining` tells it so and
+    ``driven[name]`` adds up how far the imagined base moves."""
 
-    def moved(_event: Any) -> None:
-        now = dream.world.robot_pose()
-        if last[0] is not None:
-            driven[0] += math.dist(now.position[:2], last[0].position[:2])
-        last[0] = now
+    async def run() -> T:
+        dream = current_environment()
+        driven[name] = 0.0
+        unsubscribe = None
+        if dream.has_world:
+            last = [dream.world.robot_pose()]
 
-    unsubscribe = dream.subscribe(RobotStateChanged, moved) if dream.has_world else None
-    box: list[cpl.Task] = []
+            def moved(_event: Any) -> None:
+                now = dream.world.robot_pose()
+                driven[name] += math.dist(now.position[:2], last[0].position[:2])
+                last[0] = now
 
-    async def run() -> Any:
-        me = cpl.current_task()
-        assert me is not None
-        box.append(me)
+            unsubscribe = dream.subscribe(RobotStateChanged, moved)
         token = _IMAGINING.set(name)
         try:
             return await fn()
         finally:
             _IMAGINING.reset(token)
-
-    outcome, value = "succeeded", None
-    with retry_ledger() as ledger:
-        try:
-            value = await cpl.tag(f"imagine-{name}", run())
-        except (cpl.PlanFailure, DesignatorError) as failure:
-            outcome = type(failure).__name__
-            log.info("imagined alternative %s failed: %r", name, failure)
-        finally:
             if unsubscribe is not None:
                 unsubscribe()
-    task = box[0] if box else None
-    sim = 0.0
-    if task is not None and task.start_time is not None and task.end_time is not None:
-        sim = task.end_time - task.start_time
-    imagined = Imagined(name, outcome, sum(ledger.values()), sim, driven[0], value)
-    if task is not None:
-        task.annotate("imagined", imagined)
+
+    return run
+
+
+def _summary(run: ImaginedRun[Any], name: str, driven: Mapping[str, float]) -> Imagined:
+    imagined = Imagined(name, run.outcome, run.retries, run.sim_s, driven.get(name, 0.0), run.value)
+    if run.task is not None:
+        run.task.annotate("imagined", imagined)
     return imagined
 
 
 async def _chosen(
     name: str, fn: Callable[[], Awaitable[T]], imagined: tuple[Imagined, ...], reason: str
 ) -> T:
-    async def run() -> T:
-        me = cpl.current_task()
-        if me is not None:
-            me.annotate("alternatives", imagined)
-            me.annotate("why", reason)
-        return await fn()
-
-    result: T = await cpl.tag(f"chosen-{name}", run())
-    return result
+    notes = {"alternatives": imagined, "why": reason}
+    return await run_for_real(f"chosen-{name}", cpl.Subtree.CHOSEN, fn, notes)

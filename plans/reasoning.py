@@ -4,8 +4,13 @@ times, then run it for real with the parameters of the best imagined run.
 :func:`with_projected_task_tree` runs ``body`` ``runs`` times in the current
 environment's imagination (:class:`executive.Imagination`: a projection environment over
 the belief world, restored from a snapshot before every run and after the last), each run
-a named subtree ``projection-run-<i>`` of the task tree; then ``pick`` reads those live
-subtrees and chooses the parameters, and ``body`` runs for real as ``real-run``.
+a subtree ``projection-run-<i>`` of the task tree marked :attr:`cpl.Subtree.IMAGINED`;
+then ``pick`` reads those live subtrees and chooses the parameters, and ``body`` runs for
+real as ``real-run`` (marked :attr:`cpl.Subtree.REAL`). It is a front-end over the
+imagination engine (:func:`plans.imagine`); how the runs explore is
+:class:`Exploration` (``plans._exploration``), how they are judged a :class:`Ranking`.
+How well the chosen run predicted the real one is measured by its reader, the app
+(``aiocram.fidelity``).
 :func:`pick_best_parameters_by_distance` is CRAM's choice: the successful run whose base
 route (current pose -> pick base pose -> place base pose) is shortest.
 
@@ -23,46 +28,47 @@ import logging
 import math
 import time
 from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
+from contextlib import aclosing
 from dataclasses import dataclass, field
-from itertools import islice, pairwise
+from itertools import pairwise
 from typing import Any, TypeVar
 
 import cpl
 from executive import (
     ActionDesignator,
-    Designator,
     DesignatorError,
-    Environment,
-    Key,
     LocationDesignator,
+    ObjectDesignator,
     ObjectInventory,
     Pose,
-    RuleDoc,
     a,
     current_environment,
     newest_effective,
     performed,
     previous_performed,
-    register_location_generator,
 )
 from executive.events import ObjectAttached, ObjectDetached
 
-from ._common import retry_ledger
+from ._designators import ROBOT
+from ._exploration import ARMS, POOL_PER_RUN, Exploration, partition_by_bearing
+from ._imagination import can_imagine, imagine, run_for_real
 
 __all__ = [
-    "MANY_RETRIES",
-    "RETRY_COST",
-    "RETURN_WEIGHT",
-    "TRUE_BASES",
+    "ARMS",
+    "DEFAULT_RANKING",
+    "POOL_PER_RUN",
     "Exploration",
+    "FetchAndDeliver",
     "ProjectedParameters",
+    "Ranking",
     "RunAssessment",
     "assess_run",
+    "partition_by_bearing",
     "pick_best_parameters_by_distance",
     "pick_by_prediction",
     "projected_parameters",
     "route_cost",
-    "watch_bases",
+    "run_outcome",
     "with_projected_task_tree",
 ]
 
@@ -84,186 +90,78 @@ class ProjectedParameters:
     #: in an imagined run: which alternative this run explores (see :class:`Exploration`);
     #: ``None`` in the real run and in a pass-through.
     exploration: Exploration | None = None
+    #: in an imagined run that explores a fetch and delivery (:class:`FetchAndDeliver`):
+    #: the arm to fetch with (``None``: the plan's own) and the placing target (``None``:
+    #: the plan's own); ``None`` in the real run, which follows ``pick_up_action``.
+    arm: str | None = None
+    target: LocationDesignator | None = None
 
 
 # --------------------------------------------------------------------------- exploring
-#: Samples drawn per imagined run into a shared pool (see :class:`Exploration`).
-POOL_PER_RUN = 4
-#: The arm an imagined run explores when the caller fixed none: run ``i`` (1-based) takes
-#: ``ARMS[(i - 1) % 3]`` (``None``: the plan chooses).
-ARMS: tuple[str | None, ...] = (None, "left", "right")
+@dataclass(frozen=True)
+class FetchAndDeliver:
+    """What the imagined runs of a fetch and delivery explore (given to
+    :func:`with_projected_task_tree` by ``transport``, whose body never knows whether it
+    runs imagined or real): run ``i`` fetches ``object`` with :meth:`Exploration.arm`
+    from its region of the base poses from which the object is reachable
+    (``"pick base"``, bearings around the object) and places it at its region of
+    ``target``'s solutions (``"placing target"``); ``arm``: the caller's fixed arm.
 
+    Deliberate difference from CRAM: there the four variables are the only parameters
+    and every imagined run draws from the same designator chains."""
 
-def _bearing(pose: Pose, around: Sequence[float]) -> float:
-    return math.atan2(pose.position[1] - around[1], pose.position[0] - around[0])
+    object: ObjectDesignator
+    target: LocationDesignator
+    arm: str | None = None
 
-
-def _wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-def partition_by_bearing(
-    poses: Sequence[Pose], around: Sequence[float], parts: int
-) -> list[tuple[Pose, ...]]:
-    """Cut ``poses`` into ``parts`` contiguous regions by their bearing seen from
-    ``around`` (x, y). Bearings are taken relative to the poses' circular mean, so a region
-    never straddles the far side; each region keeps the draw order of its poses. Sizes
-    differ by at most one; with fewer poses than parts the last regions are empty."""
-    if parts < 1:
-        raise ValueError(f"partition_by_bearing needs at least one part, got {parts}")
-    if not poses:
-        return [() for _ in range(parts)]
-    bearings = [_bearing(p, around) for p in poses]
-    mean = math.atan2(sum(map(math.sin, bearings)), sum(map(math.cos, bearings)))
-    order = sorted(range(len(poses)), key=lambda i: _wrap(bearings[i] - mean))
-    size, extra = divmod(len(poses), parts)
-    regions: list[tuple[Pose, ...]] = []
-    start = 0
-    for k in range(parts):
-        end = start + size + (1 if k < extra else 0)
-        members = sorted(order[start:end])  # draw order inside a region
-        regions.append(tuple(poses[i] for i in members))
-        start = end
-    return regions
-
-
-def _among_generator(d: Designator, env: Environment) -> Iterator[Pose] | None:
-    """``(among (P1 P2 ...))``: exactly those poses, in order (an imagined run's region);
-    with ``(then L)``, followed by the solutions of location designator ``L`` that are not
-    among them (the plan's own designator once the region is used up)."""
-    del env
-    if "among" not in d:
-        return None
-    poses = d["among"]
-    if not isinstance(poses, tuple) or not all(isinstance(p, Pose) for p in poses):
-        raise DesignatorError(f"{d.short()}: (among ...) takes a tuple of executive.Pose", d)
-    fallback = d.get("then")
-    if fallback is None:
-        return iter(poses)
-    if not isinstance(fallback, LocationDesignator):
-        raise DesignatorError(f"{d.short()}: (then ...) takes a location designator", d)
-    return _region_then(poses, fallback)
-
-
-def _region_then(poses: tuple[Pose, ...], fallback: LocationDesignator) -> Iterator[Pose]:
-    yield from poses
-    for p in fallback.current().solutions():
-        if not any(p == q for q in poses):
-            yield p
-
-
-register_location_generator(
-    _among_generator,
-    10,
-    doc=RuleDoc(
-        "An imagined run's region of poses, then (optionally) the plan's own designator.",
-        raises=(DesignatorError,),
-        keys=(
-            Key("among", "tuple of executive.Pose", "exactly these poses, in order", default="-"),
-            Key(
-                "then",
-                "location designator",
-                "after the poses, its solutions that are not among them",
-                default="nothing after the poses",
-            ),
-        ),
-    ),
-)
-
-
-@dataclass(eq=False)
-class Exploration:
-    """Which alternative imagined run ``run`` (1-based) of ``runs`` explores.
-
-    How the alternatives are drawn (so that ``runs=3`` compares three different choices,
-    not three draws from one distribution):
-
-    * **base-pose regions and placing targets** (:meth:`region`): the first run that asks
-      for a pool ``key`` draws ``POOL_PER_RUN * runs`` solutions of the plan's own location
-      designator (the same costmap, validated as usual, drawn with the belief world's
-      generator); the pool is kept in ``pools``, shared by all runs of one projection. It is
-      cut by bearing around a centre (the object for a pick base pose, the pool's centroid
-      for placing targets) into ``runs`` contiguous regions (:func:`partition_by_bearing`):
-      run ``i`` gets region ``i`` as an ``(among ...)`` location, whose solutions are that
-      region's poses in draw order, then (``(then ...)``) the plan's own designator's
-      other solutions: the relocation retries start in the region and, once it is used
-      up, go on as without reasoning (a region of 4 poses used to end a fetch that has 10
-      relocations after the 4th failure, with ``ObjectUnfetchable``). A
-      pool too small for a region (e.g. a fixed pose target) leaves later runs on the
-      plan's own designator.
-    * **arm**: ``ARMS[(run - 1) % 3]`` = unconstrained / left / right, unless the caller
-      fixed the arm.
-    * the grasp follows from arm and base pose (the picking checks choose it).
-
-    ``explored`` records what this run was given (for the task tree and the demo)."""
-
-    run: int
-    runs: int
-    pools: dict[str, tuple[Pose, ...]] = field(default_factory=dict)  # shared by the runs
-    explored: dict[str, Any] = field(default_factory=dict)  # this run's choices
-
-    def __post_init__(self) -> None:
-        if not 1 <= self.run <= self.runs:
-            raise ValueError(f"Exploration run must be in 1..{self.runs}, got {self.run}")
-
-    def arm(self, given: str | None) -> str | None:
-        """The arm this run explores (``given`` when the caller fixed one)."""
-        arm = given if given is not None else ARMS[(self.run - 1) % len(ARMS)]
-        self.explored["arm"] = arm or "any"
-        return arm
-
-    def region(
-        self, key: str, designator: LocationDesignator, around: Sequence[float] | None = None
-    ) -> LocationDesignator:
-        """This run's region of ``designator``'s solutions (see the class docstring);
-        ``around`` = the (x, y) centre of the bearings, default the pool's centroid."""
-        pool = self.pools.get(key)
-        if pool is None:
-            try:
-                n = POOL_PER_RUN * self.runs
-                pool = tuple(to_pose(p) for p in islice(iter(designator.solutions()), n))
-            except DesignatorError as error:
-                log.info("no pool for %s: %s", key, error)
-                pool = ()
-            self.pools[key] = pool
-        if around is None and pool:
-            around = (
-                sum(p.position[0] for p in pool) / len(pool),
-                sum(p.position[1] for p in pool) / len(pool),
-            )
-        regions = partition_by_bearing(pool, around or (0.0, 0.0), self.runs)
-        mine = regions[self.run - 1]
-        if not mine:
-            self.explored[key] = "plan's own"
-            return designator
-        bearing = math.degrees(_bearing(mine[0], around or (0.0, 0.0)))
-        self.explored[key] = f"region {self.run}/{self.runs} ({bearing:+.0f}°)"
-        return a.location(among=mine, then=designator)
-
-
-def to_pose(value: Any) -> Pose:
-    if not isinstance(value, Pose):
-        raise DesignatorError(f"a location solution must be a Pose, got {value!r}")
-    return value
+    def alternative(self, exploration: Exploration) -> ProjectedParameters:
+        """The parameters of ``exploration``'s run (drawn in the imagined world)."""
+        arm = exploration.arm(self.arm)
+        spot = a.location(of_item_object=self.object.current().get("name")).reference()
+        reachable = a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=self.arm)
+        return ProjectedParameters(
+            fetch_robot_location=exploration.region("pick base", reachable, spot.position[:2]),
+            exploration=exploration,
+            arm=arm,
+            target=exploration.region("placing target", self.target),
+        )
 
 
 # ------------------------------------------------------------------------- assessing
-#: Retries (all kinds, in one imagined run) above which a run counts as needing many.
-MANY_RETRIES = 3
-#: The route-cost equivalent of one retry (m + rad): what the time of a retry costs
-#: (3.0 measured no better on the 10-seed campaign: 88 %, 17.05 m, 364 s at 0 % faults).
-RETRY_COST = 1.0
-#: The weight of the way back (m, place base -> the start pose) in a run's cost: the
-#: next transport searches where this one started (the objects come from the counters
-#: the robot looked at), so a place base on that side saves the next drive.
-#: 0 = CRAM's open route (start -> pick base -> place base), the default: with 1.0 the
-#: 10-seed campaign drove more (17.45 m vs 16.96 m at 0 % faults; issue-14 note).
-RETURN_WEIGHT = 0.0
-#: A neighbour moved more than this (m) or tilted more than ``TILT`` (rad) was knocked.
-KNOCK_DISTANCE = 0.03
-TILT = 0.35
-#: Below this height (m) an object lies on the floor.
-FLOOR_Z = 0.3
+@dataclass(frozen=True)
+class Ranking:
+    """How imagined runs are judged and ranked (:func:`assess_run`,
+    :meth:`RunAssessment.rank`): pass one to :func:`with_projected_task_tree` (default
+    :data:`DEFAULT_RANKING`). A negative number: ValueError naming the field."""
+
+    #: retries (all kinds, in one imagined run) above which a run counts as needing many
+    many_retries: int = 3
+    #: the route-cost equivalent of one retry (m + rad): what the time of a retry costs
+    #: (3.0 measured no better on the 10-seed campaign: 88 %, 17.05 m, 364 s at 0 % faults)
+    retry_cost: float = 1.0
+    #: the weight of the way back (m, place base -> the start pose) in a run's cost: the
+    #: next transport searches where this one started (the objects come from the counters
+    #: the robot looked at), so a place base on that side saves the next drive.
+    #: 0 = CRAM's open route (start -> pick base -> place base), the default: with 1.0 the
+    #: 10-seed campaign drove more (17.45 m vs 16.96 m at 0 % faults; issue-14 note)
+    return_weight: float = 0.0
+    #: a neighbour moved more than this (m) or tilted more than ``tilt`` (rad) was knocked
+    knock_distance: float = 0.03
+    tilt: float = 0.35
+    #: below this height (m) the transported object lies on the floor
+    floor_z: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name in ("many_retries", "retry_cost", "return_weight", "knock_distance", "tilt"):
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or value < 0:
+                raise ValueError(f"Ranking.{name} is a number >= 0, got {value!r}")
+        if not isinstance(self.floor_z, int | float):
+            raise ValueError(f"Ranking.floor_z is a height in metres, got {self.floor_z!r}")
+
+
+#: The ranking projection reasoning uses unless told otherwise.
+DEFAULT_RANKING = Ranking()
 
 
 def _tilt(pose: Pose) -> float:
@@ -276,11 +174,13 @@ class RunAssessment:
     """What the imagined world predicts for one run (read before it is restored).
 
     ``failure``: the failure class name that ended the run (``None``: it succeeded);
-    ``knocked``: neighbours it moved (> ``KNOCK_DISTANCE``) or tilted (> ``TILT``);
+    ``knocked``: neighbours it moved (> ``ranking.knock_distance``) or tilted
+    (> ``ranking.tilt``);
     ``unstable``: the transported object ends tilted or on the floor; ``retries``: the
     retries granted in the run; ``route``: start -> pick base pose -> place base pose;
-    ``cost``: route cost + ``RETURN_WEIGHT`` x the distance from the place base back to
-    the start + ``RETRY_COST`` per retry (``None`` without a complete route)."""
+    ``cost``: route cost + ``ranking.return_weight`` x the distance from the place base
+    back to the start + ``ranking.retry_cost`` per retry (``None`` without a complete
+    route); ``ranking``: the :class:`Ranking` it was judged by."""
 
     name: str
     failure: str | None
@@ -295,6 +195,7 @@ class RunAssessment:
     #: ``ObjectAttached``) and released (``"place"``: the last ``ObjectDetached``) in the
     #: imagined world (see :func:`watch_bases`); empty when it never did
     bases: Mapping[str, Pose] = field(default_factory=dict)
+    ranking: Ranking = field(default=DEFAULT_RANKING, repr=False)
 
     @property
     def clean(self) -> bool:
@@ -303,7 +204,7 @@ class RunAssessment:
             self.failure is None
             and not self.knocked
             and not self.unstable
-            and self.retries <= MANY_RETRIES
+            and self.retries <= self.ranking.many_retries
         )
 
     def rank(self) -> tuple[Any, ...]:
@@ -312,7 +213,7 @@ class RunAssessment:
             self.failure is not None,
             bool(self.knocked),
             self.unstable,
-            self.retries > MANY_RETRIES,
+            self.retries > self.ranking.many_retries,
             self.cost is None,
             self.cost if self.cost is not None else math.inf,
         )
@@ -325,7 +226,7 @@ class RunAssessment:
             what = "knocks " + ", ".join(self.knocked)
         elif self.unstable:
             what = "unstable object"
-        elif self.retries > MANY_RETRIES:
+        elif self.retries > self.ranking.many_retries:
             # the retries are the verdict: said once ("15 retries, cost 18.91")
             return f"{self.retries} retries, cost {self._cost_text()}"
         else:
@@ -367,9 +268,10 @@ def assess_run(
     retries: int,
     explored: Mapping[str, Any] | None = None,
     bases: Mapping[str, Pose] | None = None,
+    ranking: Ranking = DEFAULT_RANKING,
 ) -> RunAssessment:
     """Assess one imagined run from its ``outcome`` (:func:`run_outcome`) and the object
-    poses ``before`` it and ``after`` it."""
+    poses ``before`` it and ``after`` it, by ``ranking``."""
     failure = None if outcome == "succeeded" else outcome
     knocked = tuple(
         sorted(
@@ -378,8 +280,8 @@ def assess_run(
             if n != subject
             and n in after
             and (
-                math.dist(p.position, after[n].position) > KNOCK_DISTANCE
-                or abs(_tilt(after[n]) - _tilt(p)) > TILT
+                math.dist(p.position, after[n].position) > ranking.knock_distance
+                or abs(_tilt(after[n]) - _tilt(p)) > ranking.tilt
             )
         )
     )
@@ -387,8 +289,8 @@ def assess_run(
     if subject is not None and subject in after and failure is None:
         end = after[subject]
         begin = before.get(subject)
-        tilted = _tilt(end) - (_tilt(begin) if begin is not None else 0.0) > TILT
-        unstable = tilted or end.position[2] < FLOOR_Z
+        tilted = _tilt(end) - (_tilt(begin) if begin is not None else 0.0) > ranking.tilt
+        unstable = tilted or end.position[2] < ranking.floor_z
     route: tuple[Pose, ...] = ()
     cost = None
     if params.fetch_robot_location is not None and params.deliver_robot_location is not None:
@@ -399,7 +301,7 @@ def assess_run(
             ]
             route = tuple(legs if start is None else [start, *legs])
             back = route[-1].distance_to(start) if start is not None else 0.0
-            cost = route_cost(route) + RETURN_WEIGHT * back + RETRY_COST * retries
+            cost = route_cost(route) + ranking.return_weight * back + ranking.retry_cost * retries
         except (DesignatorError, ValueError) as error:
             log.info("projected run without a usable route: %s", error)
     return RunAssessment(
@@ -413,6 +315,7 @@ def assess_run(
         params,
         dict(explored or {}),
         dict(bases or {}),
+        ranking,
     )
 
 
@@ -423,8 +326,10 @@ def pick_by_prediction(assessments: Sequence[RunAssessment]) -> RunAssessment | 
     return min(usable, key=RunAssessment.rank) if usable else None
 
 
-def why(winner: RunAssessment, others: Sequence[RunAssessment]) -> str:
-    """Why ``winner`` beat ``others``, in words."""
+def why(
+    winner: RunAssessment, others: Sequence[RunAssessment], ranking: Ranking = DEFAULT_RANKING
+) -> str:
+    """Why ``winner`` beat ``others`` (judged by ``ranking``), in words."""
     losers = [r for r in others if r is not winner]
     reasons = []
     for r in losers:
@@ -434,7 +339,7 @@ def why(winner: RunAssessment, others: Sequence[RunAssessment]) -> str:
             reasons.append(f"{r.name} knocks {', '.join(r.knocked)}")
         elif r.unstable:
             reasons.append(f"{r.name} leaves it unstable")
-        elif r.retries > MANY_RETRIES:
+        elif r.retries > ranking.many_retries:
             reasons.append(f"{r.name} needs {r.retries} retries")
         elif r.cost is not None and winner.cost is not None:
             reasons.append(f"{r.name} costs {r.cost - winner.cost:+.2f} more")
@@ -527,59 +432,7 @@ def pick_best_parameters_by_distance(
     return best[1] if best is not None else None
 
 
-# ---------------------------------------------------------------------------- fidelity
-#: The annotation of a ``real-run`` task where a witness outside the robot (e.g. the
-#: demo's truth observer, reading the *true* world through :func:`watch_bases`) records
-#: the true base poses at pick and place: ``{"pick": Pose, "place": Pose}``. The plans
-#: never write it themselves (the robot's belief is no measurement).
-TRUE_BASES = "true_bases"
-
-_IMAGINED_RUNS = ("projection-run-", "imagine-")
-
-
-def _annotate_real_run(kind: str, pose: Pose) -> None:
-    """Note ``pose`` as the ``kind`` base of the ``real-run`` task around the current
-    task (nothing outside one, or inside an imagined run)."""
-    task = cpl.current_task()
-    while task is not None:
-        if task.name.startswith(_IMAGINED_RUNS):
-            return
-        if task.name == "real-run":
-            bases = dict((task.annotations or {}).get(TRUE_BASES) or {})
-            bases[kind] = pose
-            task.annotate(TRUE_BASES, bases)
-            return
-        task = task.parent
-
-
-def watch_bases(
-    env: Environment,
-    robot_pose: Callable[[], Pose],
-    record: Callable[[str, Pose], None] | None = None,
-) -> Callable[[], None]:
-    """Watch where the robot's base stands at pick and place: on every ``ObjectAttached``
-    (``"pick"``) and ``ObjectDetached`` (``"place"``) event of ``env``, call
-    ``record(kind, robot_pose())`` (so the last grasp and the last release win). By
-    default ``record`` annotates the enclosing ``real-run`` task's :data:`TRUE_BASES`
-    (a witness of the true world passes the true robot's pose). Returns the function that
-    unsubscribes."""
-    note = record if record is not None else _annotate_real_run
-
-    def attached(_event: ObjectAttached) -> None:
-        note("pick", robot_pose())
-
-    def detached(_event: ObjectDetached) -> None:
-        note("place", robot_pose())
-
-    undo = [env.subscribe(ObjectAttached, attached), env.subscribe(ObjectDetached, detached)]
-
-    def unsubscribe() -> None:
-        for u in undo:
-            u()
-
-    return unsubscribe
-
-
+# ---------------------------------------------------------------------------- outcome
 def run_outcome(run: cpl.Task, failure: BaseException | None = None) -> str:
     """``"succeeded"`` or the failure class name: the failure that ended ``run``, else that
     of a failed ``delivering`` inside it (a transport that dropped its object at the sink
@@ -596,104 +449,6 @@ def run_outcome(run: cpl.Task, failure: BaseException | None = None) -> str:
     return "succeeded"
 
 
-@dataclass(frozen=True)
-class Fidelity:
-    """How well the chosen imagined run predicted the real one.
-
-    ``predicted`` / ``real``: :func:`run_outcome` of each; ``agrees``: they are equal;
-    ``pick_base_m`` / ``place_base_m``: distance (m) between the imagined and the real
-    run's base goals (the newest effective ``navigating`` location before the successful
-    pick / place; ``None`` where one run has none); ``route_m``: |real route cost -
-    imagined route cost| (start -> pick base -> place base).
-
-    ``true_pick_base_m`` / ``true_place_base_m`` (and ``..._deg``): how far (m, and
-    degrees of heading) the real robot's *true* base stood at pick / place
-    (:data:`TRUE_BASES`, recorded by a witness of the true world) from where the imagined
-    robot stood then (:attr:`RunAssessment.bases`); ``None`` without both."""
-
-    chosen: str
-    predicted: str
-    real: str
-    pick_base_m: float | None
-    place_base_m: float | None
-    route_m: float | None
-    true_pick_base_m: float | None = None
-    true_place_base_m: float | None = None
-    true_pick_base_deg: float | None = None
-    true_place_base_deg: float | None = None
-
-    @property
-    def agrees(self) -> bool:
-        return self.predicted == self.real
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "chosen": self.chosen,
-            "predicted": self.predicted,
-            "real": self.real,
-            "agrees": self.agrees,
-            "pick_base_m": self.pick_base_m,
-            "place_base_m": self.place_base_m,
-            "route_m": self.route_m,
-            "true_pick_base_m": self.true_pick_base_m,
-            "true_place_base_m": self.true_place_base_m,
-            "true_pick_base_deg": self.true_pick_base_deg,
-            "true_place_base_deg": self.true_place_base_deg,
-        }
-
-
-def _goal(location: LocationDesignator | None) -> Pose | None:
-    if location is None:
-        return None
-    try:
-        pose = location.reference()
-    except DesignatorError:
-        return None
-    return pose if isinstance(pose, Pose) else None
-
-
-def _apart(p: Pose | None, q: Pose | None) -> float | None:
-    if p is None or q is None or p.frame != q.frame:
-        return None
-    return math.dist(p.position[:2], q.position[:2])
-
-
-def _heading_apart(p: Pose | None, q: Pose | None) -> float | None:
-    if p is None or q is None or p.frame != q.frame:
-        return None
-    return math.degrees(abs(_wrap(p.yaw - q.yaw)))
-
-
-def measure_fidelity(
-    chosen: RunAssessment, real: cpl.Task, start: Pose | None, failure: BaseException | None
-) -> Fidelity:
-    """Compare the chosen imagined run with the finished real run ``real``."""
-    mine = projected_parameters(real)
-    pick, place = _goal(mine.fetch_robot_location), _goal(mine.deliver_robot_location)
-    route_m = None
-    if pick is not None and place is not None and chosen.cost is not None and chosen.route:
-        legs = [pick, place] if start is None else [start, pick, place]
-        try:
-            route_m = abs(route_cost(legs) - route_cost(chosen.route))
-        except ValueError:
-            route_m = None
-    imagined_pick = _goal(chosen.params.fetch_robot_location)
-    imagined_place = _goal(chosen.params.deliver_robot_location)
-    true = (real.annotations or {}).get(TRUE_BASES) or {}
-    return Fidelity(
-        chosen.name,
-        "succeeded" if chosen.failure is None else chosen.failure,
-        run_outcome(real, failure),
-        _apart(imagined_pick, pick),
-        _apart(imagined_place, place),
-        route_m,
-        _apart(chosen.bases.get("pick"), true.get("pick")),
-        _apart(chosen.bases.get("place"), true.get("place")),
-        _heading_apart(chosen.bases.get("pick"), true.get("pick")),
-        _heading_apart(chosen.bases.get("place"), true.get("place")),
-    )
-
-
 # ---------------------------------------------------------------------------- the macro
 async def with_projected_task_tree(
     body: Callable[[ProjectedParameters], Awaitable[T]],
@@ -702,101 +457,78 @@ async def with_projected_task_tree(
     *,
     enabled: bool = True,
     subject: str | None = None,
+    ranking: Ranking = DEFAULT_RANKING,
+    explore: FetchAndDeliver | None = None,
 ) -> T:
     """Imagine ``body`` ``runs`` times, then run it for real with the picked parameters
-    (CRAM's ``with-projected-task-tree``).
+    (CRAM's ``with-projected-task-tree``), on the imagination engine
+    (:func:`plans.imagine`).
 
     Pass-through (``body(ProjectedParameters())`` once, no subtrees) when ``enabled`` is
     false, the current environment is ``projecting``, or it has no ``imagination``.
     Otherwise: snapshot the belief world; in the imagination's projection environment, for
-    each run ``i`` restore the snapshot and run ``body(ProjectedParameters(exploration=
-    Exploration(i, runs, pools)))`` as the subtree ``projection-run-<i>`` (the body draws
-    its own alternative through :class:`Exploration`); a plan failure or designator error
-    ends that run only (its subtree is FAILED). Before the world is restored each run is
-    assessed (:func:`assess_run`: outcome, neighbours moved, ``subject`` unstable, retries,
-    route cost) and the assessment annotated on its subtree as ``"assessment"``. The
-    snapshot is restored after the last run, also when a run raises something else or the
-    caller is evaporated (the projection environment is left first, which stops its goals;
-    restoring does not await).
+    each run ``i`` restore the snapshot and run ``body(params)`` as the subtree
+    ``projection-run-<i>`` (marked :attr:`cpl.Subtree.IMAGINED`), where ``params`` is
+    ``explore.alternative(Exploration(i, runs, pools))`` (the run's own arm, pick base
+    region and placing target region, drawn in the imagined world; see
+    :class:`FetchAndDeliver`) or, without ``explore``,
+    ``ProjectedParameters(exploration=Exploration(i, runs, pools))`` for a body that draws
+    its own alternative; a plan failure or designator error ends that run only (its
+    subtree is FAILED). Before the world is restored each run is assessed
+    (:func:`assess_run` with ``ranking``: outcome, neighbours moved, ``subject`` unstable,
+    retries, route cost) and the assessment annotated on its subtree as ``"assessment"``.
+    The snapshot is restored after the last run, also when a run raises something else or
+    the caller is evaporated (the projection environment is left first, which stops its
+    goals; restoring does not await).
 
     Choice: with ``pick`` (CRAM's interface, e.g. :func:`pick_best_parameters_by_distance`)
     ``pick(run tasks, robot pose before imagining)``; by default :func:`pick_by_prediction`
     (predicted success first, then cost). ``None``: nothing injected. Then ``body(params)``
-    runs as the subtree ``real-run``, annotated ``"projected"`` (the parameters),
-    ``"imagined"`` (the assessments), ``"chosen"`` / ``"why"`` and, when it ends,
-    ``"fidelity"`` (:class:`Fidelity`, when a run was chosen); its value or failure is the
-    result. Deliberate difference from CRAM: CRAM's imagined runs all draw from one
-    designator chain and it picks by distance only."""
-    env = current_environment()
-    imagination = env.imagination
-    if not enabled or env.projecting or imagination is None:
+    runs as the subtree ``real-run`` (marked :attr:`cpl.Subtree.REAL`), annotated
+    ``"imagined"`` (the assessments), ``"imagined_wall_s"``, ``"projected"`` (the
+    parameters), ``"chosen"`` / ``"why"`` and ``"start"`` (the robot's base pose before
+    imagining); its value or failure is the result. Deliberate difference from CRAM:
+    CRAM's imagined runs all draw from one designator chain and it picks by distance
+    only."""
+    imagination = can_imagine(enabled)
+    if imagination is None:
         return await body(ProjectedParameters())
+    env = current_environment()
     start = env.world.robot_pose() if env.has_world else None
-    snapshot = imagination.snapshot()
     run_tasks: list[cpl.Task] = []
     assessments: list[RunAssessment] = []
     pools: dict[str, tuple[Pose, ...]] = {}
+    watched: dict[str, _Watched] = {}
     t0 = time.perf_counter()
 
-    try:
-        with retry_ledger():  # imagined retries are not the caller's
-            async with imagination.projection():
-                world = current_environment().world
-                names = _scene_names(world)
-                for i in range(1, runs + 1):
-                    imagination.restore(snapshot)
-                    before = _object_poses(world, names)
-                    exploration = Exploration(i, runs, pools)
-                    given = ProjectedParameters(exploration=exploration)
-                    box: list[cpl.Task] = []
-                    counted: list[int] = [0]
+    def alternatives() -> Iterator[tuple[str, Callable[[], Awaitable[T]]]]:
+        for i in range(1, runs + 1):
+            name = f"projection-run-{i}"
+            exploration = Exploration(i, runs, pools)
+            yield name, _watching(body, exploration, explore, watched.setdefault(name, _Watched()))
 
-                    async def imagine(
-                        given: ProjectedParameters = given,
-                        box: list[cpl.Task] = box,
-                        counted: list[int] = counted,
-                    ) -> T:
-                        me = cpl.current_task()
-                        assert me is not None
-                        box.append(me)
-                        with retry_ledger() as ledger:
-                            try:
-                                return await body(given)
-                            finally:
-                                counted[0] = sum(ledger.values())
-
-                    failure: BaseException | None = None
-                    bases: dict[str, Pose] = {}  # the imagined robot at pick / place
-                    unwatch = watch_bases(
-                        current_environment(), world.robot_pose, bases.__setitem__
-                    )
-                    try:
-                        await cpl.tag(f"projection-run-{i}", imagine())
-                    except (cpl.PlanFailure, DesignatorError) as error:
-                        failure = error
-                        log.info("projection run %d failed: %r", i, error)
-                    finally:
-                        unwatch()
-                    if not box:
-                        continue
-                    run = box[0]
-                    run_tasks.append(run)
-                    assessment = assess_run(
-                        run.name,
-                        run_outcome(run, failure),
-                        projected_parameters(run),
-                        start,
-                        before,
-                        _object_poses(world, names),
-                        subject,
-                        counted[0],
-                        exploration.explored,
-                        bases,
-                    )
-                    run.annotate("assessment", assessment)
-                    assessments.append(assessment)
-    finally:
-        imagination.restore(snapshot)
+    async with aclosing(imagine(imagination, alternatives())) as imagined:
+        async for run in imagined:
+            if run.task is None:
+                continue
+            seen = watched[run.name]
+            run_tasks.append(run.task)
+            assert seen.given is not None and seen.given.exploration is not None
+            assessment = assess_run(
+                run.task.name,
+                run_outcome(run.task, run.failure),
+                projected_parameters(run.task),
+                start,
+                seen.before,
+                _object_poses(run.env.world, seen.names),
+                subject,
+                run.retries,
+                seen.given.exploration.explored,
+                seen.bases,
+                ranking,
+            )
+            run.task.annotate("assessment", assessment)
+            assessments.append(assessment)
     imagined_wall = time.perf_counter() - t0
     chosen: RunAssessment | None = None
     if pick is not None:
@@ -804,26 +536,63 @@ async def with_projected_task_tree(
     else:
         chosen = pick_by_prediction(assessments)
         params = chosen.params if chosen is not None else None
+    notes: dict[str, Any] = {"imagined": tuple(assessments), "imagined_wall_s": imagined_wall}
+    if params is not None:
+        notes["projected"] = params
+    if chosen is not None:
+        notes["chosen"] = chosen.name
+        notes["why"] = why(chosen, assessments, ranking)
+    if start is not None:
+        notes["start"] = start
+    real_params = params if params is not None else ProjectedParameters()
+    return await run_for_real("real-run", cpl.Subtree.REAL, lambda: body(real_params), notes)
 
-    async def real() -> T:
-        me = cpl.current_task()
-        if me is not None:
-            me.annotate("imagined", tuple(assessments))
-            me.annotate("imagined_wall_s", imagined_wall)
-            if params is not None:
-                me.annotate("projected", params)
-            if chosen is not None:
-                me.annotate("chosen", chosen.name)
-                me.annotate("why", why(chosen, assessments))
-        failure: BaseException | None = None
+
+@dataclass
+class _Watched:
+    """What one imagined run's own code saw (after the engine restored the belief)."""
+
+    given: ProjectedParameters | None = None
+    names: list[str] = field(default_factory=list)  # the imagined world's objects
+    before: dict[str, Pose] = field(default_factory=dict)  # their poses as the run began
+    bases: dict[str, Pose] = field(default_factory=dict)  # the imagined robot at pick/place
+
+
+def _watching(
+    body: Callable[[ProjectedParameters], Awaitable[T]],
+    exploration: Exploration,
+    explore: FetchAndDeliver | None,
+    seen: _Watched,
+) -> Callable[[], Awaitable[T]]:
+    """``body`` as the imagined run that explores ``exploration``: it notes in ``seen`` the
+    parameters it was given, the object poses it began with and where the imagined
+    robot's base stood at every grasp and release."""
+
+    async def run() -> T:
+        dream = current_environment()
+        world = dream.world
+        seen.names = _scene_names(world)
+        seen.before = _object_poses(world, seen.names)
+        given = seen.given = (
+            explore.alternative(exploration)
+            if explore is not None
+            else ProjectedParameters(exploration=exploration)
+        )
+
+        def attached(_event: ObjectAttached) -> None:
+            seen.bases["pick"] = world.robot_pose()
+
+        def detached(_event: ObjectDetached) -> None:
+            seen.bases["place"] = world.robot_pose()
+
+        undo = [
+            dream.subscribe(ObjectAttached, attached),
+            dream.subscribe(ObjectDetached, detached),
+        ]
         try:
-            return await body(params if params is not None else ProjectedParameters())
-        except BaseException as error:
-            failure = error
-            raise
+            return await body(given)
         finally:
-            if me is not None and chosen is not None and not isinstance(failure, cpl.Evaporated):
-                me.annotate("fidelity", measure_fidelity(chosen, me, start, failure))
+            for u in undo:
+                u()
 
-    result: T = await cpl.tag("real-run", real())
-    return result
+    return run

@@ -28,7 +28,6 @@ from executive import (
     ObjectUndeliverable,
     ObjectUnfetchable,
     RuleDoc,
-    a,
     an,
     perform,
     register_resources,
@@ -36,12 +35,12 @@ from executive import (
 )
 
 from ._common import the_base
-from ._designators import ROBOT, _check_places, _given_arm, _location, _object
+from ._designators import _check_places, _given_arm, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
 from .environment_access import seal_if_open
 from .fetch import ObjectUnreachableOnFloor, search_floor
-from .reasoning import ProjectedParameters, with_projected_task_tree
+from .reasoning import FetchAndDeliver, ProjectedParameters, with_projected_task_tree
 
 __all__ = ["transport"]
 
@@ -64,7 +63,10 @@ async def transport(
     otherwise search and fetch failures propagate. Fetch and deliver run inside
     :func:`~plans.reasoning.with_projected_task_tree` (``projection_runs`` imagined runs,
     the designator's ``projection-runs`` property, default 3; then the real one
-    with the chosen base poses, arm, grasp and placing target) when
+    with the chosen base poses, arm, grasp and placing target), as in CRAM's Lisp: their
+    body only takes the parameters it is given; what the imagined runs explore is
+    declared to the macro (:class:`~plans.reasoning.FetchAndDeliver`), which draws each
+    run's alternative, when
     ``projection_reasoning`` (the designator's ``projection-reasoning`` property, default
     true; CRAM's demo disables it) and the environment can imagine; otherwise it is a
     pass-through. Cleanup: the container is sealed in a ``finally`` that runs
@@ -101,23 +103,14 @@ async def transport(
             found = await search_floor(object_designator, failure)
 
         async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
-            fetch_arm, fetch_location, to = arm, given.fetch_robot_location, target
-            explore = given.exploration
-            if explore is not None:  # an imagined run: draw this run's own alternative
-                fetch_arm = explore.arm(arm)
-                spot = a.location(of_item_object=found.current().get("name")).reference()
-                fetch_location = explore.region(
-                    "pick base",
-                    a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=arm),
-                    spot.position[:2],
-                )
-                to = explore.region("placing target", target)
+            # CRAM's body of with-projected-task-tree: the parameters are what projection
+            # chose (or explores in an imagined run); the body does not know which
             fetched: ObjectDesignator = await perform(
                 an.action(
                     type="fetching",
                     object=found,
-                    arm=fetch_arm,
-                    robot_location=fetch_location,
+                    arm=given.arm if given.arm is not None else arm,
+                    robot_location=given.fetch_robot_location,
                     pick_up_action=given.pick_up_action,
                 )
             )
@@ -127,7 +120,7 @@ async def transport(
                     an.action(
                         type="delivering",
                         object=fetched,
-                        target=to,
+                        target=given.target if given.target is not None else target,
                         robot_location=given.deliver_robot_location,
                         place_action=given.place_action,
                     )
@@ -145,6 +138,7 @@ async def transport(
                 projection_runs,
                 enabled=projection_reasoning,
                 subject=found.current().get("name"),
+                explore=FetchAndDeliver(found, target, arm),
             )
         except ObjectUnfetchable as failure:
             if isinstance(failure, ObjectUnreachableOnFloor):

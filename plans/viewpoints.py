@@ -56,8 +56,9 @@ from executive import (
 )
 from executive.failures import PerceptionLowLevelFailure
 
+from ._exploration import partition_by_bearing, to_pose
 from .imagining import Imagined, imagine_best, imagining
-from .reasoning import partition_by_bearing, route_cost, to_pose
+from .reasoning import route_cost
 
 __all__ = ["POOL", "REGION_POINTS", "STAND_IN", "look_from_best", "navigate_to_best_viewpoint"]
 

@@ -150,7 +150,7 @@ def _transport_times(root: cpl.Task, watch: _Watch) -> tuple[dict[str, float], d
         otype = str(obj.get("type")) if obj is not None else task.path_entry
         real[otype] = task.end_time - (task.start_time or task.end_time)
         imagined[otype] = sum(
-            watch.wall_time(t) for t in _walk(task) if t.name.startswith("projection-run")
+            watch.wall_time(t) for t in _walk(task) if t.subtree is cpl.Subtree.IMAGINED
         )
     return real, imagined
 

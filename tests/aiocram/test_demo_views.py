@@ -134,20 +134,31 @@ def test_one_failed_task_is_singular():
 
 
 def test_fold_failures_leaves_imagined_runs_out():
+    """By the subtree's mark, not its name: a marked subtree with any name is left out,
+    a subtree named like an imagined run but unmarked is counted."""
+
     class T:
-        def __init__(self, path, state=cpl.Status.FAILED):
-            self.path = tuple(path.split("/"))
-            self.path_entry = self.path[-1]
+        def __init__(self, name, parent=None, state=cpl.Status.FAILED, subtree=None):
+            self.parent = parent
+            self.path = (*parent.path, name) if parent is not None else (name,)
+            self.path_entry = name
             self.state = state
+            self.subtree = subtree
             self.failure = NotSeen("x")
 
+    demo = T("demo", state=cpl.Status.RUNNING)
+    transport = T("transport", demo, cpl.Status.RUNNING)
+    perceive = T("perceive", transport, cpl.Status.SUCCEEDED)
+    dream = T("what-if", transport, cpl.Status.FAILED, subtree=cpl.Subtree.IMAGINED)
+    lookalike = T("projection-run-1", transport, cpl.Status.SUCCEEDED)
     tasks = [
-        T("demo/transport/perceive/perception"),
-        T("demo/transport/perceive/perception#2"),
-        T("demo/transport/projection-run-1/perceive/perception"),
-        T("demo/transport/perceive", cpl.Status.SUCCEEDED),
+        T("perception", perceive),
+        T("perception#2", perceive),
+        T("perception", T("perceive", dream, cpl.Status.SUCCEEDED)),
+        T("perception", lookalike),
+        perceive,
     ]
-    assert [(n, k) for n, k, _ in fold_failures(tasks)] == [("perception", 2)]
+    assert [(n, k) for n, k, _ in fold_failures(tasks)] == [("perception", 3)]
 
 
 @pytest.mark.parametrize("width", [60, 80, 120])

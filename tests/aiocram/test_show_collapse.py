@@ -34,8 +34,8 @@ async def _transport(fails: int) -> None:
             await _perception(True).annotate(designator=an.action(type="detecting", object=spoon))
         except NotSeen:
             pass
-    try:  # imagined: its failures are not counted
-        await cpl.tag("projection-run-1", _perception(True))
+    try:  # imagined (by its mark, whatever its name): its failures are not counted
+        await cpl.tag("what-if-1", _perception(True), subtree=cpl.Subtree.IMAGINED)
     except NotSeen:
         pass
 

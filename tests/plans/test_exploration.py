@@ -20,13 +20,13 @@ from test_reasoning import (  # type: ignore[import-not-found]
 )
 
 import cpl
+from aiocram.fidelity import fidelity_of, measure_fidelity
 from executive import DesignatorError, Pose, a, perform, performed
 from plans.reasoning import (
     Exploration,
     ProjectedParameters,
     RunAssessment,
     assess_run,
-    measure_fidelity,
     partition_by_bearing,
     pick_by_prediction,
     why,
@@ -192,7 +192,8 @@ def test_fidelity_records_a_real_run_that_disagrees_with_its_prediction():
         run_real(real, imagination, body)
     real_run = child(box[0], "real-run")
     assert real_run.state is cpl.Status.FAILED
-    fid = real_run.annotations["fidelity"]
+    fid = fidelity_of(real_run)
+    assert fid is not None
     assert fid.predicted == "succeeded" and fid.real == "ObjectUnfetchable"
     assert not fid.agrees
     assert fid.to_json()["agrees"] is False
@@ -205,7 +206,8 @@ def test_measure_fidelity_on_a_finished_task_tree():
     _world, real, _dream, imagination = setup()
     root, _ = run_real(real, imagination, lambda: perform(transporting()))
     real_run = child(root, "real-run")
-    fid = real_run.annotations["fidelity"]
+    fid = fidelity_of(real_run)
+    assert fid is not None
     assert fid.chosen == real_run.annotations["chosen"]
     assert fid.predicted == "succeeded" and fid.real == "succeeded" and fid.agrees
     assert fid.pick_base_m == pytest.approx(0.0) and fid.place_base_m == pytest.approx(0.0)
@@ -281,9 +283,9 @@ def _short_real_robot(world: Any, short: float) -> tuple[Any, list[Pose]]:
 
 def _run_witnessed(robot: Any, imagination: Any, true_base: list[Pose]) -> cpl.Task:
     """One transport in the real environment with a witness of the true base
-    (:func:`plans.reasoning.watch_bases`, as the demo's truth observer does)."""
+    (:func:`aiocram.fidelity.watch_bases`, as the demo's truth observer does)."""
+    from aiocram.fidelity import watch_bases
     from executive import current_environment
-    from plans.reasoning import watch_bases
 
     box: list[cpl.Task] = []
 
@@ -306,14 +308,15 @@ def test_fidelity_compares_the_true_base_with_the_imagined_one():
     belief says it arrived (so the commanded goals agree, 0 m); the fidelity record
     measures the true base 0.25 m from where the imagined robot stood, at pick and place;
     the foresight rows and the campaign aggregate carry it."""
+    from aiocram.fidelity import TRUE_BASES
     from aiocram.foresight import fidelity_lines, fidelity_summary, foresight_records
-    from plans.reasoning import TRUE_BASES
 
     world, _real, _dream, imagination = setup()
     robot, true_base = _short_real_robot(world, 0.25)
     root = _run_witnessed(robot, imagination, true_base)
     real_run = child(root, "real-run")
-    fid = real_run.annotations["fidelity"]
+    fid = fidelity_of(real_run)
+    assert fid is not None
     assert fid.agrees  # the outcome was predicted ...
     assert fid.pick_base_m == pytest.approx(0.0)  # ... and the commanded goals agree,
     assert fid.true_pick_base_m == pytest.approx(0.25, abs=1e-6)  # the true base does not
@@ -340,13 +343,15 @@ def test_fidelity_of_a_true_base_that_arrived():
     witness there is no true-base figure at all (never the belief's)."""
     world, _real, _dream, imagination = setup()
     robot, true_base = _short_real_robot(world, 0.0)
-    fid = child(_run_witnessed(robot, imagination, true_base), "real-run").annotations["fidelity"]
+    fid = fidelity_of(child(_run_witnessed(robot, imagination, true_base), "real-run"))
+    assert fid is not None
     assert fid.true_pick_base_m == pytest.approx(0.0) and fid.true_place_base_m == pytest.approx(
         0.0
     )
     _world, real, _dream, imagination = setup()
     root, _ = run_real(real, imagination, lambda: perform(transporting()))
-    unwitnessed = child(root, "real-run").annotations["fidelity"]
+    unwitnessed = fidelity_of(child(root, "real-run"))
+    assert unwitnessed is not None
     assert unwitnessed.true_pick_base_m is None and unwitnessed.true_place_base_m is None
 
 
@@ -363,10 +368,10 @@ def test_the_floor_plan_shows_the_imagined_bases_the_chosen_run_and_the_true_rou
 
     import executive
     from aiocram._floorplan import RouteRecorder, draw_floor_plan
+    from aiocram.fidelity import TRUE_BASES, watch_bases
     from aiocram.foresight import foresight_records
     from cpl.testing import MockClock
     from executive import current_environment
-    from plans.reasoning import TRUE_BASES, watch_bases
 
     world, _real, _dream, imagination = setup()
     robot, true_base = _short_real_robot(world, 0.25)
