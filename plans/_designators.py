@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 import inspect
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Any
 
 from executive import (
@@ -17,6 +17,7 @@ from executive import (
     DesignatorInputError,
     LocationDesignator,
     ObjectDesignator,
+    ObjectInventory,
     Pose,
     WorldQueries,
     current_environment,
@@ -76,7 +77,7 @@ def _check_places(d: Designator, *keys: str) -> None:
             place = value.get(relation)
             if isinstance(place, str):  # (on "name"): a link or an object of the world
                 link = place
-                if link in getattr(world, "objects", ()):
+                if isinstance(world, ObjectInventory) and link in world.object_names():
                     continue
             elif isinstance(place, ObjectDesignator):
                 link = place.get("urdf-name")
@@ -132,13 +133,15 @@ def _object(d: Designator) -> ObjectDesignator:
 
 
 def _known_object_types() -> list[str]:
-    """Object knowledge's types and the types of the world's objects, sorted."""
+    """Object knowledge's types and the types of the world model's objects (where it can
+    list them: :class:`executive.ObjectInventory`), sorted."""
     types = set(knowledge.known_types())
-    world = getattr(current_environment(), "world", None)
-    objects = getattr(world, "objects", None)
-    if isinstance(objects, Mapping):
-        for entry in objects.values():
-            entry_type = entry if isinstance(entry, str) else getattr(entry, "type", None)
-            if isinstance(entry_type, str):
-                types.add(entry_type)
+    env = current_environment()
+    world = env.world if env.has_world else None
+    if isinstance(world, ObjectInventory) and isinstance(world, WorldQueries):
+        for name in world.object_names():
+            try:
+                types.add(world.object_type(name))
+            except LookupError:
+                continue
     return sorted(types)

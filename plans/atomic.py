@@ -488,7 +488,8 @@ def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
             f"values ({', '.join(joints)}); got {value!r}",
             d,
         )
-    world = getattr(current_environment(), "world", None)
+    env = current_environment()
+    world = env.world if env.has_world else None
     if isinstance(world, ArmJointLimits):
         for v, (joint, lo, hi) in zip(value, world.arm_joint_limits(arm)):
             if not lo - _LIMIT_TOLERANCE <= v <= hi + _LIMIT_TOLERANCE:
