@@ -62,6 +62,9 @@ class DemoConfig:
     gui: bool = False
     out: Path | None = None
     live: bool = True
+    #: The experience store the run is recorded in (an SQLite path or a database URL;
+    #: ``None``: not recorded). The command's default is ``OUT/experience.sqlite``.
+    store: str | Path | None = None
 
     def check(self) -> None:
         """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
@@ -96,6 +99,13 @@ class DemoConfig:
                 check_out_dir(Path(self.out))
             except OutputError as exc:
                 raise DemoConfigError(str(exc)) from None
+        if self.store is not None:
+            from aiocram.experience import StoreError, store_url
+
+            try:
+                store_url(self.store)
+            except StoreError as exc:
+                raise DemoConfigError(str(exc)) from None
 
 
 @dataclass
@@ -122,6 +132,8 @@ class DemoReport:
     #: What the true world says after the run (``None`` if it was never measured).
     truth: TruthReport | None = None
     foresight: list[dict[str, Any]] = field(default_factory=list)  # aiocram.foresight
+    #: Wall seconds spent recording the run in the experience store (after the run).
+    store_s: float = 0.0
 
     @property
     def delivered(self) -> int:
@@ -268,6 +280,7 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
     command passes one); the run attaches its root task to it, so a Ctrl-C evaporates
     the plan and the report comes back with ``interrupted=True``."""
     config.check()
+    _check_store(config)  # opens it: a locked, corrupt or newer store stops us here
     import plans
     from plans.demo import table_setting
     from projection import make_world_pair, real_robot_clock, with_real_robot
@@ -392,7 +405,41 @@ def run_demo(config: DemoConfig, console: Any = None, *, interrupts: Any = None)
             if world is not None:
                 world.close()
     report.files = files
+    if config.store is not None:
+        _record_experience(config, report, files)
     return report
+
+
+# -------------------------------------------------------------- experience (issue 29)
+def _check_store(config: DemoConfig) -> None:
+    """Open the store before the run (DemoConfigError naming what to fix)."""
+    if config.store is None:
+        return
+    from aiocram.experience import StoreError, check_store
+
+    try:
+        check_store(config.store)
+    except StoreError as exc:
+        raise DemoConfigError(f"--store: {exc}") from None
+
+
+def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]) -> None:
+    """Record the finished run in the experience store (after the run, off its control
+    path); an SQLite store is listed with the files written. A store that fails now (it
+    was checked before the run) is reported on stderr: the run's own outputs stand."""
+    from aiocram.experience import StoreError, record_run, store_url
+    from projection._world_base import ROBOT
+
+    assert config.store is not None
+    faults = config.faults if isinstance(config.faults, str) else None
+    try:
+        report.store_s = record_run(config.store, report, robot=ROBOT, faults=faults)
+    except StoreError as exc:
+        print(f"aiocram demo: the run was not recorded: {exc}", file=sys.stderr)
+        return
+    url = store_url(config.store)
+    if url.get_backend_name() == "sqlite":
+        files.append(Path(os.path.relpath(str(url.database))))
 
 
 @contextlib.contextmanager
@@ -566,9 +613,12 @@ def run_demo_once(
     projection: bool = True,
     objects: Sequence[str] = DEFAULT_OBJECTS,
     runs: int = 3,
+    experience: bool = False,
 ) -> dict[str, Any]:
     """One headless campaign run at a uniform fault rate (seeded by ``seed``); the JSON
-    record of :class:`DemoReport`."""
+    record of :class:`DemoReport`. ``experience=True``: the record also carries the run's
+    experience-store rows under ``"experience"`` (:func:`aiocram.experience.run_rows`,
+    read from the run's task tree after the run), for the campaign to write."""
     from projection import FaultProfile
 
     config = DemoConfig(
@@ -579,8 +629,20 @@ def run_demo_once(
         faults=FaultProfile.uniform(fault_rate, seed=seed),
         live=False,
     )
-    record = run_demo(config).to_json()
+    report = run_demo(config)
+    record = report.to_json()
     record["fault_rate"] = fault_rate
+    if experience:
+        from aiocram.experience import run_rows
+        from projection._world_base import ROBOT
+
+        record["experience"] = run_rows(
+            {**record, "wall_time_s": report.wall_time_s},
+            report.root,
+            robot=ROBOT,
+            source="campaign",
+            faults=f"{fault_rate:g}",
+        )
     return record
 
 
@@ -826,6 +888,16 @@ def add_parser(subparsers: Any) -> None:
         action="store_true",
         help="no live view (for logs and pipes); the summary is printed still",
     )
+    p.add_argument(
+        "--store",
+        default=None,
+        metavar="FILE_OR_URL",
+        help="record the run in this experience store: an SQLite file or a database URL "
+        "(postgresql+psycopg://user@host/db); default: OUT/experience.sqlite",
+    )
+    p.add_argument(
+        "--no-store", action="store_true", help="do not record the run in the experience store"
+    )
     p.set_defaults(handler=_command)
 
 
@@ -850,7 +922,11 @@ def _command(args: argparse.Namespace) -> int:
         gui=args.gui,
         out=Path(args.out),
         live=not args.no_live,
+        store=None if args.no_store else (args.store or Path(args.out) / "experience.sqlite"),
     )
+    if args.no_store and args.store is not None:
+        print("aiocram demo: error: --store and --no-store: give one of them", file=sys.stderr)
+        return EXIT_USAGE
     try:
         config.check()
     except DemoConfigError as exc:
