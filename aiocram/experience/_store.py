@@ -251,9 +251,10 @@ class Store:
 
     def _runs_of(self, label: str) -> ColumnElement[bool]:
         """The runs of a campaign id or a commit (either in full or a unique prefix)."""
-        found = [
-            (kind, value) for kind, value, _ in self.labels() if value.startswith(label.strip())
-        ]
+        labels = self.labels()
+        found = [(kind, value) for kind, value, _ in labels if value == label.strip()]
+        if not found:  # no exact match: a unique prefix
+            found = [(kind, value) for kind, value, _ in labels if value.startswith(label.strip())]
         if not label.strip() or not found:
             known = ", ".join(f"{v[:12]} ({k})" for k, v, _ in self.labels()[:8]) or "none"
             raise StoreError(
