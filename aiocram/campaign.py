@@ -1022,6 +1022,12 @@ def _command(args: argparse.Namespace) -> int:
             f"--out {out} holds a campaign already ({', '.join(previous)}); give another "
             "--out, or add --overwrite to replace it when this campaign ends"
         )
+    client = None
+    if args.backend == "dask" and args.scheduler is not None:
+        try:  # before anything is written: a scheduler that does not answer is an error
+            client = connect(args.scheduler)
+        except SchedulerError as exc:
+            return _usage(str(exc))
     experience: CampaignStore | None = None
     if not args.no_store:
         from aiocram.experience import StoreError
@@ -1029,15 +1035,9 @@ def _command(args: argparse.Namespace) -> int:
         try:  # before anything runs: a locked, corrupt, newer or silent store is an error
             experience = CampaignStore(args.store or out / "experience.sqlite")
         except StoreError as exc:
+            if client is not None:
+                client.close()
             return _usage(f"--store: {exc}")
-    client = None
-    if args.backend == "dask" and args.scheduler is not None:
-        try:  # before anything is written: a scheduler that does not answer is an error
-            client = connect(args.scheduler)
-        except SchedulerError as exc:
-            if experience is not None:
-                experience.close()
-            return _usage(str(exc))
     # --overwrite: the new files are staged and replace the previous campaign's at the end
     staged: Outputs | None = None
     try:

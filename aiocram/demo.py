@@ -420,7 +420,8 @@ def _check_store(config: DemoConfig) -> None:
     try:
         check_store(config.store)
     except StoreError as exc:
-        raise DemoConfigError(f"--store: {exc}") from None
+        inside = config.out is not None and Path(config.store).parent == Path(config.out)
+        raise DemoConfigError(f"{'--out' if inside else '--store'}: {exc}") from None
 
 
 def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]) -> None:
