@@ -335,3 +335,49 @@ def test_the_demo_records_its_run(tmp_path, capsys):
     assert imagined and picks
     assert main([*args, "--no-store", "--out", str(tmp_path / "d2")]) in (0, 1)
     assert not (tmp_path / "d2" / "experience.sqlite").exists()
+
+
+def test_a_crashed_run_is_recorded_and_a_run_not_written_is_counted(tmp_path, monkeypatch):
+    """The campaign's side: a run the harness lost is a run row with its error; a run
+    whose rows cannot be written (the file stays locked) is counted, not dropped."""
+    import aiocram.experience._engine as engine
+    from aiocram.campaign import CampaignStore
+
+    monkeypatch.setattr(engine, "LOCK_TIMEOUT_S", 0.2)
+    sink = CampaignStore(tmp_path / "e.sqlite")
+    crashed = {
+        "seed": 7,
+        "fault_rate": 0.1,
+        "projection": True,
+        "error": "WorkerDied: the worker process running this job was killed by SIGKILL",
+        "objects": {},
+        "planned": ["cup", "bowl"],
+        "invariants": {},
+        "wall_time_s": 1.0,
+    }
+    sink.take(dict(crashed))
+    assert (sink.recorded, sink.errors) == (1, [])
+    holder = sqlite3.connect(tmp_path / "e.sqlite", isolation_level=None)
+    holder.execute("BEGIN IMMEDIATE")
+    try:
+        sink.take({**crashed, "seed": 8})
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    assert sink.recorded == 1 and len(sink.errors) == 1 and "locked" in sink.errors[0]
+    assert sink.summary()["runs_not_recorded"] == 1
+    sink.close()
+    with Store(tmp_path / "e.sqlite") as store, store.engine.connect() as conn:
+        rows = conn.execute(select(runs.c.seed, runs.c.error, runs.c.objects)).all()
+    assert [(s, o) for s, _, o in rows] == [(7, 2)] and "WorkerDied" in rows[0][1]
+
+
+def test_on_dask_with_sqlite_the_parent_writes(tmp_path):
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "d"
+    args = ["campaign", "--seeds", "1", "--faults", "0", "--no-projection", "--objects", "cup"]
+    assert main([*args, "--backend", "dask", "--workers", "1", "--out", str(out)]) in (0, 1)
+    summary = json.loads((out / "campaign.json").read_text())["summary"]["experience"]
+    assert summary["runs_recorded"] == 1 and summary["write_s"] > 0  # written here
+    with Store(out / "experience.sqlite") as store:
+        assert store.run_count() == 1 and store.parameters("cup")
