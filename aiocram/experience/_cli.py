@@ -245,13 +245,10 @@ def _compare(args: argparse.Namespace) -> int:
         a, b = cmp.before, cmp.after
         table = _table(
             "compare (real runs, true world)",
-            [
-                ("", "left"),
-                (f"A {a.label[:14]}", "right"),
-                (f"B {b.label[:14]}", "right"),
-                ("B - A", "right"),
-            ],
+            [("", "left"), ("A", "right"), ("B", "right"), ("B - A", "right")],
+            caption=f"A: {a.label} · B: {b.label}; failures counted where they arose",
         )
+        table.columns[0].overflow = "fold"
         table.add_row("runs", str(a.runs), str(b.runs), f"{b.runs - a.runs:+d}")
         table.add_row(
             "delivered",

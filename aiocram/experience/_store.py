@@ -256,7 +256,10 @@ class Store:
         if not found:  # no exact match: a unique prefix
             found = [(kind, value) for kind, value, _ in labels if value.startswith(label.strip())]
         if not label.strip() or not found:
-            known = ", ".join(f"{v[:12]} ({k})" for k, v, _ in self.labels()[:8]) or "none"
+            known = (
+                ", ".join(f"{v if k == 'campaign' else v[:12]} ({k})" for k, v, _ in labels[:8])
+                or "none"
+            )
             raise StoreError(
                 f"{label!r} names no campaign or commit in {shown(self.url)} (known: {known})"
             )
