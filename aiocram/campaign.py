@@ -120,13 +120,12 @@ def _experience_rows(job: Job, result: dict[str, Any]) -> None:
     """Give ``result`` its store rows (a crashed run: its run row only), stamped with the
     campaign; with ``job.store`` write them here and note ``"stored"`` (or
     ``"store_error"``) instead."""
-    from aiocram.experience import StoreError, run_rows
+    from aiocram.experience import StoreError, robot_name, run_rows
 
     rows = result.get("experience")
     if rows is None:
-        from projection._world_base import ROBOT
-
-        rows = run_rows(result, None, robot=ROBOT, source="campaign", faults=f"{job.fault_rate:g}")
+        faults = f"{job.fault_rate:g}"
+        rows = run_rows(result, None, robot=robot_name(), source="campaign", faults=faults)
     run = rows["runs"][0]
     run["campaign"] = job.campaign
     run["wall_time_s"] = result["wall_time_s"]
@@ -338,7 +337,7 @@ class CampaignStore:
 
     def take(self, record: dict[str, Any]) -> None:
         """Write (or account for) the rows of the run ``record``; they leave the record."""
-        from aiocram.experience import StoreError, run_rows
+        from aiocram.experience import StoreError, robot_name, run_rows
 
         rows = record.pop("experience", None)
         if "stored" in record:
@@ -349,9 +348,7 @@ class CampaignStore:
             self.errors.append(record.pop("store_error"))
             return
         if rows is None:  # a job that never reached run_job (a dead worker)
-            from projection._world_base import ROBOT
-
-            rows = run_rows(record, None, robot=ROBOT, source="campaign")
+            rows = run_rows(record, None, robot=robot_name(), source="campaign")
             rows["runs"][0]["campaign"] = self.campaign
         try:
             self.seconds += self.store.record(rows)

@@ -428,13 +428,12 @@ def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]
     """Record the finished run in the experience store (after the run, off its control
     path); an SQLite store is listed with the files written. A store that fails now (it
     was checked before the run) is reported on stderr: the run's own outputs stand."""
-    from aiocram.experience import StoreError, record_run, store_url
-    from projection._world_base import ROBOT
+    from aiocram.experience import StoreError, record_run, robot_name, store_url
 
     assert config.store is not None
     faults = config.faults if isinstance(config.faults, str) else None
     try:
-        report.store_s = record_run(config.store, report, robot=ROBOT, faults=faults)
+        report.store_s = record_run(config.store, report, robot=robot_name(), faults=faults)
     except StoreError as exc:
         print(f"aiocram demo: the run was not recorded: {exc}", file=sys.stderr)
         return
@@ -634,13 +633,12 @@ def run_demo_once(
     record = report.to_json()
     record["fault_rate"] = fault_rate
     if experience:
-        from aiocram.experience import run_rows
-        from projection._world_base import ROBOT
+        from aiocram.experience import robot_name, run_rows
 
         record["experience"] = run_rows(
             {**record, "wall_time_s": report.wall_time_s},
             report.root,
-            robot=ROBOT,
+            robot=robot_name(),
             source="campaign",
             faults=f"{fault_rate:g}",
         )

@@ -25,7 +25,7 @@ from ._errors import (
     StoreUnreachableError,
     StoreVersionError,
 )
-from ._extract import current_commit, run_rows
+from ._extract import current_commit, robot_name, run_rows
 from ._plot import plot_failures
 from ._record import check_store, default_store, record_run
 from ._schema import SCHEMA_VERSION
@@ -50,6 +50,7 @@ __all__ = [
     "default_store",
     "plot_failures",
     "record_run",
+    "robot_name",
     "run_rows",
     "store_url",
 ]

@@ -20,7 +20,7 @@ from typing import Any
 
 import cpl
 
-__all__ = ["IMAGINED_PREFIXES", "current_commit", "run_rows"]
+__all__ = ["IMAGINED_PREFIXES", "current_commit", "robot_name", "run_rows"]
 
 #: Names of the tasks that root an imagined run (plans.reasoning's projection runs).
 IMAGINED_PREFIXES = ("projection-run-", "imagine-")
@@ -45,6 +45,14 @@ def current_commit() -> str | None:
         return None
     rev = done.stdout.strip()
     return rev if done.returncode == 0 and len(rev) == 40 else None
+
+
+def robot_name() -> str:
+    """The name of the robot the demo runs (recorded with each run). The one place that
+    asks: where the robot becomes a choice, this reads the choice."""
+    from projection._world_base import ROBOT
+
+    return ROBOT
 
 
 def _now() -> str:
