@@ -78,6 +78,13 @@ class Job:
     projection: bool
     objects: tuple[str, ...] = DEFAULT_OBJECTS
     runs: int = 3
+    #: Read the run's experience-store rows after the run (issue 29).
+    experience: bool = False
+    #: The campaign's id in the store.
+    campaign: str | None = None
+    #: A database URL the worker writes the rows to itself (PostgreSQL); ``None``: the
+    #: rows go back with the record and the parent writes them (SQLite: one writer).
+    store: str | None = None
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -93,11 +100,40 @@ def run_job(job: Job) -> dict[str, Any]:
             projection=job.projection,
             objects=job.objects,
             runs=job.runs,
+            experience=job.experience,
         )
     except Exception as exc:  # the campaign records every failure of the harness itself
         result = _crashed(job, f"{type(exc).__name__}: {exc}")
     result["wall_time_s"] = time.perf_counter() - t0
+    if job.experience:
+        _experience_rows(job, result)
     return result
+
+
+def _experience_rows(job: Job, result: dict[str, Any]) -> None:
+    """Give ``result`` its store rows (a crashed run: its run row only), stamped with the
+    campaign; with ``job.store`` write them here and note ``"stored"`` (or
+    ``"store_error"``) instead."""
+    from aiocram.experience import StoreError, robot_name, run_rows
+
+    rows = result.get("experience")
+    if rows is None:
+        faults = f"{job.fault_rate:g}"
+        rows = run_rows(result, None, robot=robot_name(), source="campaign", faults=faults)
+    run = rows["runs"][0]
+    run["campaign"] = job.campaign
+    run["wall_time_s"] = result["wall_time_s"]
+    result["experience"] = rows
+    if job.store is None:
+        return
+    from aiocram.experience import Store
+
+    del result["experience"]
+    try:
+        with Store(job.store, create=True) as store:
+            result["stored"] = store.record(rows)
+    except StoreError as exc:  # counted and reported by the parent
+        result["store_error"] = str(exc)
 
 
 def _jobs(
@@ -269,6 +305,70 @@ def _run_local(
             w.stop(kill=w.job is not None)
 
 
+class CampaignStore:
+    """The campaign's side of the experience store (issue 29): opened (and so checked)
+    before any run starts; each run's rows are written as it ends, off the runs' control
+    path: by the parent for SQLite (one writer; the rows come back with the record), by
+    the workers themselves for a server (PostgreSQL), the dask workers included. A run
+    whose rows could not be written is counted and reported, never silently dropped."""
+
+    def __init__(self, url: Any) -> None:
+        import datetime as dt
+        import uuid
+
+        from aiocram.experience import Store, store_url
+
+        self.url = store_url(url)
+        self.store = Store(self.url, create=True)  # StoreError: before anything runs
+        now = dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%S")
+        self.campaign = f"{now}-{uuid.uuid4().hex[:6]}"
+        self.remote = self.url.get_backend_name() != "sqlite"
+        self.recorded = 0  # invariant: runs whose rows are in the store
+        self.errors: list[str] = []  # one message per run not recorded
+        self.seconds = 0.0  # spent writing in this process
+
+    def job(self, job: Job) -> Job:
+        from dataclasses import replace
+
+        url = self.url.render_as_string(hide_password=False) if self.remote else None
+        return replace(job, experience=True, campaign=self.campaign, store=url)
+
+    def take(self, record: dict[str, Any]) -> None:
+        """Write (or account for) the rows of the run ``record``; they leave the record."""
+        from aiocram.experience import StoreError, robot_name, run_rows
+
+        rows = record.pop("experience", None)
+        if "stored" in record:
+            self.recorded += 1
+            record.pop("stored")
+            return
+        if "store_error" in record:
+            self.errors.append(record.pop("store_error"))
+            return
+        if rows is None:  # a job that never reached run_job (a dead worker)
+            rows = run_rows(record, None, robot=robot_name(), source="campaign")
+            rows["runs"][0]["campaign"] = self.campaign
+        try:
+            self.seconds += self.store.record(rows)
+            self.recorded += 1
+        except StoreError as exc:
+            self.errors.append(str(exc))
+
+    def summary(self) -> dict[str, Any]:
+        from aiocram.experience._engine import shown
+
+        return {
+            "store": shown(self.url),
+            "campaign": self.campaign,
+            "runs_recorded": self.recorded,
+            "runs_not_recorded": len(self.errors),
+            "write_s": self.seconds,
+        }
+
+    def close(self) -> None:
+        self.store.close()
+
+
 #: Seconds a ``--scheduler`` has to answer before the campaign gives up on it.
 SCHEDULER_TIMEOUT_S = 5.0
 
@@ -395,6 +495,7 @@ def run_campaign(
     results: list[dict[str, Any]] | None = None,
     stop: Callable[[], bool] = _never,
     client: Any = None,
+    experience: Any = None,
 ) -> list[dict[str, Any]]:
     """Run every (seed, fault rate, projection mode) job and return the raw results, in
     the order they ended. ``on_result(record)`` is called as each run ends (the command
@@ -402,6 +503,7 @@ def run_campaign(
     to, so a caller interrupted by Ctrl-C still holds every finished run. Once ``stop()``
     is true no further job starts (the command stops so when it cannot write). ``client``:
     a connected ``dask.distributed.Client`` for the dask backend (see :func:`connect`).
+    ``experience``: a :class:`CampaignStore` the runs are recorded in (issue 29).
     Arguments are all checked before any job starts (ValueError)."""
     jobs = plan_campaign(
         seeds=seeds,
@@ -411,10 +513,14 @@ def run_campaign(
         first_seed=first_seed,
         objects=objects,
     )
+    if experience is not None:
+        jobs = [experience.job(j) for j in jobs]
     out: list[dict[str, Any]] = [] if results is None else results
     report = progress or (lambda done, total: None)
 
     def done(record: dict[str, Any]) -> None:
+        if experience is not None:
+            experience.take(record)
         out.append(record)
         if on_result is not None:
             on_result(record)
@@ -745,6 +851,17 @@ def add_parser(subparsers: Any) -> None:
         help="replace the campaign already in --out when this one ends (interrupted or "
         "not); without it such an --out is refused",
     )
+    p.add_argument(
+        "--store",
+        default=None,
+        metavar="FILE_OR_URL",
+        help="record every run in this experience store: an SQLite file or a database URL "
+        "(postgresql+psycopg://user@host/db: the workers write to it); default: "
+        "OUT/experience.sqlite, kept across campaigns (each has its own id)",
+    )
+    p.add_argument(
+        "--no-store", action="store_true", help="do not record the runs in the experience store"
+    )
     p.set_defaults(handler=_command)
 
 
@@ -859,6 +976,8 @@ def _command(args: argparse.Namespace) -> int:
             raise ValueError(f"--workers must be at least 1, got {args.workers}")
         if args.scheduler is not None and args.backend != "dask":
             raise ValueError(f"--scheduler {args.scheduler}: a dask scheduler needs --backend dask")
+        if args.no_store and args.store is not None:
+            raise ValueError("--store and --no-store: give one of them")
         check_out_dir(args.out)
     except (ValueError, OutputError) as exc:
         return _usage(str(exc))
@@ -875,6 +994,16 @@ def _command(args: argparse.Namespace) -> int:
             client = connect(args.scheduler)
         except SchedulerError as exc:
             return _usage(str(exc))
+    experience: CampaignStore | None = None
+    if not args.no_store:
+        from aiocram.experience import StoreError
+
+        try:  # before anything runs: a locked, corrupt, newer or silent store is an error
+            experience = CampaignStore(args.store or out / "experience.sqlite")
+        except StoreError as exc:
+            if client is not None:
+                client.close()
+            return _usage(f"--store: {exc}")
     # --overwrite: the new files are staged and replace the previous campaign's at the end
     staged: Outputs | None = None
     try:
@@ -888,6 +1017,8 @@ def _command(args: argparse.Namespace) -> int:
     except (OutputError, OSError) as exc:
         if client is not None:
             client.close()
+        if experience is not None:
+            experience.close()
         text = str(exc) if isinstance(exc, OutputError) else f"{exc.strerror or exc}"
         return _usage(f"--out {out}: cannot write there: {text}")
 
@@ -914,12 +1045,15 @@ def _command(args: argparse.Namespace) -> int:
             results=results,
             stop=lambda: runs.error is not None,
             client=client,
+            experience=experience,
         )
     except KeyboardInterrupt:
         interrupted = True
     finally:
         restore_sigint()
         runs.close()
+        if experience is not None:
+            experience.close()
     print(file=sys.stderr)
     summary = summarise(results)
     summary["command"] = " ".join(["aiocram", *sys.argv[1:]])
@@ -929,6 +1063,8 @@ def _command(args: argparse.Namespace) -> int:
     summary["runs_finished"] = len(results)
     summary["runs_planned"] = len(jobs)
     summary["partial"] = interrupted or runs.error is not None
+    if experience is not None:
+        summary["experience"] = experience.summary()
     failure: OSError | None = runs.error
     if staged is not None and not results:
         # interrupted before any run ended: nothing to replace the previous campaign with
@@ -953,6 +1089,8 @@ def _command(args: argparse.Namespace) -> int:
     final = [out / p.name for p in [runs.path, *written]]
     _print_summary(summary)
     print(f"wrote {', '.join(str(p) for p in final)}")
+    if experience is not None:
+        _print_recorded(experience)
     if failure is not None:
         path = out / "runs.jsonl" if failure is runs.error else failure.filename or out
         return _not_written(failure, path, out, runs.written, unsaved, len(results), len(jobs))
@@ -971,6 +1109,21 @@ def _command(args: argparse.Namespace) -> int:
         return EXIT_HARNESS
     violated = sum(len(r["invariant_violations"]) for r in summary["rows"])
     return EXIT_VIOLATED if violated else EXIT_OK
+
+
+def _print_recorded(experience: CampaignStore) -> None:
+    """Where the runs were recorded; the runs that could not be, counted, each reason."""
+    info = experience.summary()
+    print(
+        f"recorded {_runs(info['runs_recorded'])} in {info['store']} as campaign "
+        f"{info['campaign']} (aiocram experience failures --store {info['store']})"
+    )
+    if experience.errors:
+        print(
+            f"aiocram campaign: {_runs(len(experience.errors))} not recorded in the "
+            f"experience store (they are in runs.jsonl): {experience.errors[0]}",
+            file=sys.stderr,
+        )
 
 
 def _runs(n: int) -> str:

@@ -206,6 +206,12 @@ def _add_campaign(subparsers: _Subparsers) -> None:
     add_parser(subparsers)
 
 
+def _add_experience(subparsers: _Subparsers) -> None:
+    from aiocram.experience._cli import add_parser
+
+    add_parser(subparsers)
+
+
 def _add_reference(subparsers: _Subparsers) -> None:
     from aiocram.reference import add_parser
 
@@ -223,6 +229,7 @@ _SUBCOMMANDS: tuple[Callable[[_Subparsers], None], ...] = (
     _add_show,
     _add_bench,
     _add_campaign,
+    _add_experience,
     _add_reference,
     _add_robot,
 )

@@ -74,6 +74,16 @@ def add_parser(subparsers: Any) -> None:
         action="store_true",
         help="no live view (for logs and pipes); the summary is printed still",
     )
+    p.add_argument(
+        "--store",
+        default=None,
+        metavar="FILE_OR_URL",
+        help="record the run in this experience store: an SQLite file or a database URL "
+        "(postgresql+psycopg://user@host/db); default: OUT/experience.sqlite",
+    )
+    p.add_argument(
+        "--no-store", action="store_true", help="do not record the run in the experience store"
+    )
     p.set_defaults(handler=_command)
 
 
@@ -98,7 +108,11 @@ def _command(args: argparse.Namespace) -> int:
         gui=args.gui,
         out=Path(args.out),
         live=not args.no_live,
+        store=None if args.no_store else (args.store or Path(args.out) / "experience.sqlite"),
     )
+    if args.no_store and args.store is not None:
+        print("aiocram demo: error: --store and --no-store: give one of them", file=sys.stderr)
+        return EXIT_USAGE
     try:
         config.check()
     except DemoConfigError as exc:

@@ -71,6 +71,9 @@ class DemoConfig:
     gui: bool = False
     out: Path | None = None
     live: bool = True
+    #: The experience store the run is recorded in (an SQLite path or a database URL;
+    #: ``None``: not recorded). The command's default is ``OUT/experience.sqlite``.
+    store: str | Path | None = None
 
     def check(self) -> None:
         """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
@@ -95,6 +98,13 @@ class DemoConfig:
             try:
                 check_out_dir(Path(self.out))
             except OutputError as exc:
+                raise DemoConfigError(str(exc)) from None
+        if self.store is not None:
+            from aiocram.experience import StoreError, store_url
+
+            try:
+                store_url(self.store)
+            except StoreError as exc:
                 raise DemoConfigError(str(exc)) from None
 
 

@@ -46,6 +46,8 @@ class DemoReport:
     #: What the true world says after the run (``None`` if it was never measured).
     truth: TruthReport | None = None
     foresight: list[dict[str, Any]] = field(default_factory=list)  # aiocram.foresight
+    #: Wall seconds spent recording the run in the experience store (after the run).
+    store_s: float = 0.0
     #: Metres the base drove while each object was transported (by type).
     distances: dict[str, float] = field(default_factory=dict)
 

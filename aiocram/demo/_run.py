@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
+import sys
 import time
 from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -185,6 +187,7 @@ def run_demo(
 
     ``plan`` (see :data:`DemoPlan`): tests and other apps hand in their own."""
     config.check()
+    _check_store(config)  # opens it: a locked, corrupt or newer store stops us here
     if not callable(plan):
         raise TypeError(
             f"run_demo(plan=...) takes an async function (world, config) -> outcomes, "
@@ -308,7 +311,41 @@ def run_demo(
             if world is not None:
                 world.close()
     report.files = files
+    if config.store is not None:
+        _record_experience(config, report, files)
     return report
+
+
+# -------------------------------------------------------------- experience (issue 29)
+def _check_store(config: DemoConfig) -> None:
+    """Open the store before the run (DemoConfigError naming what to fix)."""
+    if config.store is None:
+        return
+    from aiocram.experience import StoreError, check_store
+
+    try:
+        check_store(config.store)
+    except StoreError as exc:
+        inside = config.out is not None and Path(config.store).parent == Path(config.out)
+        raise DemoConfigError(f"{'--out' if inside else '--store'}: {exc}") from None
+
+
+def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]) -> None:
+    """Record the finished run in the experience store (after the run, off its control
+    path); an SQLite store is listed with the files written. A store that fails now (it
+    was checked before the run) is reported on stderr: the run's own outputs stand."""
+    from aiocram.experience import StoreError, record_run, robot_name, store_url
+
+    assert config.store is not None
+    faults = config.faults if isinstance(config.faults, str) else None
+    try:
+        report.store_s = record_run(config.store, report, robot=robot_name(), faults=faults)
+    except StoreError as exc:
+        print(f"aiocram demo: the run was not recorded: {exc}", file=sys.stderr)
+        return
+    url = store_url(config.store)
+    if url.get_backend_name() == "sqlite":
+        files.append(Path(os.path.relpath(str(url.database))))
 
 
 @contextlib.contextmanager
@@ -356,9 +393,12 @@ def run_demo_once(
     projection: bool = True,
     objects: Sequence[str] = DEFAULT_OBJECTS,
     runs: int = 3,
+    experience: bool = False,
 ) -> dict[str, Any]:
     """One headless campaign run at a uniform fault rate (seeded by ``seed``); the JSON
-    record of :class:`DemoReport`."""
+    record of :class:`DemoReport`. ``experience=True``: the record also carries the run's
+    experience-store rows under ``"experience"`` (:func:`aiocram.experience.run_rows`,
+    read from the run's task tree after the run), for the campaign to write."""
     from projection import FaultProfile
 
     config = DemoConfig(
@@ -369,6 +409,17 @@ def run_demo_once(
         faults=FaultProfile.uniform(fault_rate, seed=seed),
         live=False,
     )
-    record = run_demo(config).to_json()
+    report = run_demo(config)
+    record = report.to_json()
     record["fault_rate"] = fault_rate
+    if experience:
+        from aiocram.experience import robot_name, run_rows
+
+        record["experience"] = run_rows(
+            {**record, "wall_time_s": report.wall_time_s},
+            report.root,
+            robot=robot_name(),
+            source="campaign",
+            faults=f"{fault_rate:g}",
+        )
     return record
