@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
 import sys
 import time
 from collections.abc import Awaitable, Callable, Iterator, Mapping, Sequence
@@ -345,7 +344,7 @@ def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]
         return
     url = store_url(config.store)
     if url.get_backend_name() == "sqlite":
-        files.append(Path(os.path.relpath(str(url.database))))
+        files.append(Path(str(url.database)))
 
 
 @contextlib.contextmanager
