@@ -59,6 +59,15 @@ from ._policies import (
     with_policy,
 )
 from ._queries import ancestors, find_tasks, previous_sibling, walk
+from ._retention import (
+    KeepAll,
+    KeepRecent,
+    Retention,
+    RetentionSummary,
+    StreamFinished,
+    retention_summary,
+    retired,
+)
 from ._runtime import RunHistory, RunTimeout, run, task_tree, top_level
 from ._status import Status
 from ._suspension import on_suspension, with_task_suspended
@@ -78,6 +87,8 @@ __all__ = [
     "FailureInfo",
     "Fluent",
     "Instrument",
+    "KeepAll",
+    "KeepRecent",
     "LazyList",
     "Plan",
     "PlanCall",
@@ -87,11 +98,14 @@ __all__ = [
     "PolicyFailure",
     "PolicyInitFailed",
     "PolicyTimeout",
+    "Retention",
+    "RetentionSummary",
     "RetryCounter",
     "RunHistory",
     "RunTimeout",
     "ScaledClock",
     "Status",
+    "StreamFinished",
     "SystemClock",
     "Tagged",
     "Tags",
@@ -122,6 +136,8 @@ __all__ = [
     "previous_sibling",
     "pulsed",
     "pursue",
+    "retention_summary",
+    "retired",
     "retry",
     "return_",
     "run",

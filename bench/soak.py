@@ -1,0 +1,214 @@
+"""Soak benchmark: a robot's executive running all day in one top level (issue 28).
+
+Run: ``python bench/soak.py [--performs N] [--retention all|recent|stream] [--quick]``
+
+One ``cpl.run``, an environment with one fake process module, an action that grounds to a
+plan performing one ``going`` motion, performed in a loop (three tasks per perform: the
+plan's, the goal's, and the process module's). At each checkpoint (10 k, 50 k, 100 k,
+300 k, 1 M performs, up to N) it prints:
+
+- **mean µs / perform** over the performs since the previous checkpoint, garbage
+  collection included (total wall time / count);
+- **peak RSS growth** since the warm-up ended (``ru_maxrss``);
+- **full collections** (gen-2) so far and the **longest pause** of one of them (each timed
+  with ``gc.callbacks``);
+- the **nodes** the recorded tree holds in full below the root.
+
+The same run measures its asyncio baseline first: a bare coroutine loop of the same count
+(an ``asyncio`` task spawned and awaited per iteration: the floor of one task), printed
+as µs per iteration, and the ratio of each mean to it.
+
+``--retention`` picks the task-tree retention policy (see ``cpl.Retention``): ``all``
+(``cpl.KeepAll``, the behaviour before issue 28), ``recent`` (``cpl.KeepRecent(100,
+records=10_000)``, the long-running default) or ``stream`` (``cpl.StreamFinished`` to a
+temporary file, 100 kept in full). ``--quick`` runs 20 k performs (for CI).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import gc
+import os
+import resource
+import sys
+import tempfile
+import time
+from typing import Any
+
+import cpl
+from executive import Pose, RuleSet, a, an, environment, perform
+from executive.testing import FakeProcessModule
+
+P = Pose((1.0, 2.0, 0.0))
+CHECKPOINTS = (10_000, 50_000, 100_000, 300_000, 1_000_000)
+QUICK_CHECKPOINTS = (2_000, 5_000, 10_000, 20_000)
+WARMUP = 1_000
+TARGET_RSS_MB = 50.0  # growth from 100 k to 1 M performs under the long-running default
+TARGET_PAUSE_MS = 20.0  # longest full collection
+TARGET_FLAT = 1.2  # mean at the last checkpoint / mean at the first
+
+
+async def moving_plan() -> None:
+    await perform(a.motion(type="going", pose=P))
+
+
+def moving_rule(d: Any) -> Any:
+    yield moving_plan, {}
+
+
+class FullCollections:
+    """Counts gen-2 collections and keeps the longest one's duration (``gc.callbacks``)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.longest = 0.0
+        self._start = 0.0
+
+    def __call__(self, phase: str, info: dict[str, int]) -> None:
+        if info["generation"] != 2:
+            return
+        if phase == "start":
+            self._start = time.perf_counter()
+        else:
+            self.count += 1
+            self.longest = max(self.longest, time.perf_counter() - self._start)
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+async def _noop() -> None:
+    return None
+
+
+async def _baseline(n: int) -> float:
+    """µs per iteration of a bare loop spawning and awaiting one asyncio task."""
+    loop = asyncio.get_running_loop()
+    t0 = time.perf_counter()
+    for _ in range(n):
+        await loop.create_task(_noop())
+    return (time.perf_counter() - t0) / n * 1e6
+
+
+def _policy(name: str, log_path: str) -> cpl.Retention:
+    if name == "all":
+        return cpl.KeepAll()
+    if name == "recent":
+        return cpl.KeepRecent(100, records=10_000, freeze=True)
+    if name == "stream":
+        return cpl.StreamFinished(log_path, full=100, freeze=True)
+    raise SystemExit(f"soak: unknown --retention {name!r}; use all, recent or stream")
+
+
+def soak(total: int, checkpoints: tuple[int, ...], retention: str) -> list[dict[str, float]]:
+    marks = [c for c in checkpoints if c <= total]
+    if not marks or marks[-1] != total:
+        marks.append(total)
+    rows: list[dict[str, float]] = []
+    full = FullCollections()
+    rules = RuleSet()
+    rules.register("action", "soak-moving", moving_rule)
+    baseline: list[float] = []
+
+    async def main() -> None:
+        baseline.append(await _baseline(total))
+        gc.collect()
+        async with environment(
+            rules=rules, process_modules=[FakeProcessModule("nav", history=100)]
+        ):
+            root = cpl.current_task()
+            assert root is not None
+            for _ in range(WARMUP):
+                await perform(an.action(type="soak-moving"))
+            gc.collect()
+            rss0 = _rss_mb()
+            gc.callbacks.append(full)
+            try:
+                done = 0
+                for mark in marks:
+                    t0 = time.perf_counter()
+                    for _ in range(mark - done):
+                        await perform(an.action(type="soak-moving"))
+                    elapsed = time.perf_counter() - t0
+                    rows.append(
+                        {
+                            "performs": mark,
+                            "mean_us": elapsed / (mark - done) * 1e6,
+                            "rss_mb": _rss_mb() - rss0,
+                            "full": full.count,
+                            "pause_ms": full.longest * 1e3,
+                            "nodes": sum(1 for _ in cpl.walk(root)),
+                        }
+                    )
+                    done = mark
+                    print(_row(rows[-1], baseline[0]), flush=True)
+            finally:
+                gc.callbacks.remove(full)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        policy = _policy(retention, os.path.join(tmp, "soak.jsonl"))
+        print(
+            f"soak: {total} action performs in one top level, retention {policy!r}; "
+            f"asyncio baseline measured first in the same run",
+            flush=True,
+        )
+        print(
+            "| performs so far | mean µs / perform | x asyncio task | peak RSS growth "
+            "| full collections | longest pause | nodes in full |",
+            flush=True,
+        )
+        print("|---:|---:|---:|---:|---:|---:|---:|", flush=True)
+        cpl.run(main, name="soak", retention=policy)
+    print(f"asyncio baseline: {baseline[0]:.2f} µs per iteration (task spawn + await)")
+    _verdicts(rows)
+    return rows
+
+
+def _row(r: dict[str, float], base: float) -> str:
+    return (
+        f"| {int(r['performs']):,} | {r['mean_us']:.1f} | {r['mean_us'] / base:.1f} "
+        f"| {r['rss_mb']:+.1f} MB | {int(r['full'])} | {r['pause_ms']:.1f} ms "
+        f"| {int(r['nodes']):,} |"
+    )
+
+
+def _verdicts(rows: list[dict[str, float]]) -> None:
+    first, last = rows[0], rows[-1]
+    ratio = last["mean_us"] / first["mean_us"]
+    print(
+        f"target mean at {int(last['performs']):,} <= {TARGET_FLAT}x mean at "
+        f"{int(first['performs']):,}: {ratio:.2f}x -> {'OK' if ratio <= TARGET_FLAT else 'OVER'}"
+    )
+    pause = max(r["pause_ms"] for r in rows)
+    print(
+        f"target longest full collection <= {TARGET_PAUSE_MS:.0f} ms: {pause:.1f} ms -> "
+        f"{'OK' if pause <= TARGET_PAUSE_MS else 'OVER'}"
+    )
+    at_100k = [r for r in rows if r["performs"] == 100_000]
+    if at_100k and last["performs"] > 100_000:
+        growth = last["rss_mb"] - at_100k[0]["rss_mb"]
+        print(
+            f"target peak RSS growth 100,000 -> {int(last['performs']):,} <= "
+            f"{TARGET_RSS_MB:.0f} MB: {growth:+.1f} MB -> "
+            f"{'OK' if growth <= TARGET_RSS_MB else 'OVER'}"
+        )
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--performs", type=int, default=1_000_000)
+    parser.add_argument("--retention", default="recent", choices=("all", "recent", "stream"))
+    parser.add_argument("--quick", action="store_true", help="20 k performs (CI)")
+    args = parser.parse_args(argv)
+    if args.performs < 1:
+        parser.error(f"--performs must be at least 1, got {args.performs}")
+    if args.quick:
+        soak(20_000, QUICK_CHECKPOINTS, args.retention)
+    else:
+        soak(args.performs, CHECKPOINTS, args.retention)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
