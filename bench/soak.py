@@ -19,9 +19,15 @@ The same run measures its asyncio baseline first: a bare coroutine loop of the s
 as µs per iteration, and the ratio of each mean to it.
 
 ``--retention`` picks the task-tree retention policy (see ``cpl.Retention``): ``all``
-(``cpl.KeepAll``, the behaviour before issue 28), ``recent`` (``cpl.KeepRecent(100,
-records=10_000)``, the long-running default) or ``stream`` (``cpl.StreamFinished`` to a
-temporary file, 100 kept in full). ``--quick`` runs 20 k performs (for CI).
+(``cpl.KeepAll``, the behaviour before issue 28), ``recent`` (``cpl.KeepRecent(F,
+records=10_000, freeze=True)``; with the default ``--full 0`` it is the long-running
+default the README recommends) or ``stream`` (``cpl.StreamFinished`` to a temporary
+file, ``F`` kept whole, ``freeze=True``). ``--quick`` runs 20 k performs (for CI).
+
+The fake process module keeps no history of its goals (``history=1``), as a real one: a
+module that kept every motion would grow the heap by itself. The longest pause is
+printed with its CPU time (``time.thread_time``): on a shared machine the wall time of a
+collection also counts the time other processes held the core.
 """
 
 from __future__ import annotations
@@ -63,16 +69,22 @@ class FullCollections:
     def __init__(self) -> None:
         self.count = 0
         self.longest = 0.0
+        self.longest_cpu = 0.0  # the CPU time of the longest one (this thread's)
         self._start = 0.0
+        self._start_cpu = 0.0
 
     def __call__(self, phase: str, info: dict[str, int]) -> None:
         if info["generation"] != 2:
             return
         if phase == "start":
             self._start = time.perf_counter()
+            self._start_cpu = time.thread_time()
         else:
             self.count += 1
-            self.longest = max(self.longest, time.perf_counter() - self._start)
+            pause = time.perf_counter() - self._start
+            if pause > self.longest:
+                self.longest = pause
+                self.longest_cpu = time.thread_time() - self._start_cpu
 
 
 def _rss_mb() -> float:
@@ -92,22 +104,24 @@ async def _baseline(n: int) -> float:
     return (time.perf_counter() - t0) / n * 1e6
 
 
-def _policy(name: str, log_path: str) -> cpl.Retention:
+def _policy(name: str, log_path: str, full: int) -> cpl.Retention:
     if name == "all":
         return cpl.KeepAll()
     if name == "recent":
-        return cpl.KeepRecent(100, records=10_000, freeze=True)
+        return cpl.KeepRecent(full, records=10_000, freeze=True)
     if name == "stream":
-        return cpl.StreamFinished(log_path, full=100, freeze=True)
+        return cpl.StreamFinished(log_path, full=full, freeze=True)
     raise SystemExit(f"soak: unknown --retention {name!r}; use all, recent or stream")
 
 
-def soak(total: int, checkpoints: tuple[int, ...], retention: str) -> list[dict[str, float]]:
+def soak(
+    total: int, checkpoints: tuple[int, ...], retention: str, full: int = 0
+) -> list[dict[str, float]]:
     marks = [c for c in checkpoints if c <= total]
     if not marks or marks[-1] != total:
         marks.append(total)
     rows: list[dict[str, float]] = []
-    full = FullCollections()
+    collections = FullCollections()
     rules = RuleSet()
     rules.register("action", "soak-moving", moving_rule)
     baseline: list[float] = []
@@ -115,16 +129,15 @@ def soak(total: int, checkpoints: tuple[int, ...], retention: str) -> list[dict[
     async def main() -> None:
         baseline.append(await _baseline(total))
         gc.collect()
-        async with environment(
-            rules=rules, process_modules=[FakeProcessModule("nav", history=100)]
-        ):
+        fake = FakeProcessModule("nav", history=1)  # keeps no goals, as a real module
+        async with environment(rules=rules, process_modules=[fake]):
             root = cpl.current_task()
             assert root is not None
             for _ in range(WARMUP):
                 await perform(an.action(type="soak-moving"))
             gc.collect()
             rss0 = _rss_mb()
-            gc.callbacks.append(full)
+            gc.callbacks.append(collections)
             try:
                 done = 0
                 for mark in marks:
@@ -137,18 +150,19 @@ def soak(total: int, checkpoints: tuple[int, ...], retention: str) -> list[dict[
                             "performs": mark,
                             "mean_us": elapsed / (mark - done) * 1e6,
                             "rss_mb": _rss_mb() - rss0,
-                            "full": full.count,
-                            "pause_ms": full.longest * 1e3,
+                            "full": collections.count,
+                            "pause_ms": collections.longest * 1e3,
+                            "pause_cpu_ms": collections.longest_cpu * 1e3,
                             "nodes": sum(1 for _ in cpl.walk(root)),
                         }
                     )
                     done = mark
                     print(_row(rows[-1], baseline[0]), flush=True)
             finally:
-                gc.callbacks.remove(full)
+                gc.callbacks.remove(collections)
 
     with tempfile.TemporaryDirectory() as tmp:
-        policy = _policy(retention, os.path.join(tmp, "soak.jsonl"))
+        policy = _policy(retention, os.path.join(tmp, "soak.jsonl"), full)
         print(
             f"soak: {total} action performs in one top level, retention {policy!r}; "
             f"asyncio baseline measured first in the same run",
@@ -156,7 +170,7 @@ def soak(total: int, checkpoints: tuple[int, ...], retention: str) -> list[dict[
         )
         print(
             "| performs so far | mean µs / perform | x asyncio task | peak RSS growth "
-            "| full collections | longest pause | nodes in full |",
+            "| full collections | longest pause (its CPU time) | nodes in full |",
             flush=True,
         )
         print("|---:|---:|---:|---:|---:|---:|---:|", flush=True)
@@ -170,6 +184,7 @@ def _row(r: dict[str, float], base: float) -> str:
     return (
         f"| {int(r['performs']):,} | {r['mean_us']:.1f} | {r['mean_us'] / base:.1f} "
         f"| {r['rss_mb']:+.1f} MB | {int(r['full'])} | {r['pause_ms']:.1f} ms "
+        f"({r['pause_cpu_ms']:.1f} ms CPU) "
         f"| {int(r['nodes']):,} |"
     )
 
@@ -200,14 +215,17 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--performs", type=int, default=1_000_000)
     parser.add_argument("--retention", default="recent", choices=("all", "recent", "stream"))
+    parser.add_argument(
+        "--full", type=int, default=0, help="finished performs kept whole (recent, stream)"
+    )
     parser.add_argument("--quick", action="store_true", help="20 k performs (CI)")
     args = parser.parse_args(argv)
     if args.performs < 1:
         parser.error(f"--performs must be at least 1, got {args.performs}")
     if args.quick:
-        soak(20_000, QUICK_CHECKPOINTS, args.retention)
+        soak(20_000, QUICK_CHECKPOINTS, args.retention, args.full)
     else:
-        soak(args.performs, CHECKPOINTS, args.retention)
+        soak(args.performs, CHECKPOINTS, args.retention, args.full)
 
 
 if __name__ == "__main__":

@@ -51,13 +51,14 @@ def policies(tmp_path: Path) -> Iterator[cpl.Retention]:
     yield cpl.KeepRecent(3)
     yield cpl.KeepRecent(3, records=2, freeze=True)
     yield cpl.StreamFinished(tmp_path / "stream.jsonl", full=3)
+    yield cpl.KeepRecent(0, records=10_000, freeze=True)  # the long-running default
 
 
 def policy_ids() -> list[str]:
-    return ["keep-all", "keep-recent", "keep-recent-bounded", "stream"]
+    return ["keep-all", "keep-recent", "keep-recent-bounded", "stream", "long-running"]
 
 
-@pytest.fixture(params=range(4), ids=policy_ids())
+@pytest.fixture(params=range(5), ids=policy_ids())
 def policy(request: pytest.FixtureRequest, tmp_path: Path) -> cpl.Retention:
     return list(policies(tmp_path))[request.param]
 
@@ -122,12 +123,18 @@ def test_queries_snapshot_and_live_view_under_each_policy(policy: cpl.Retention)
         assert summary.retired == 0 and seen["retired"] == []
         assert seen["size"] == 1 + 9 * 2 + 1
         return
+    assert seen["size"] == 1 + 9 * 2 + 1  # nothing is lost: every task shown or counted
+    if isinstance(policy, cpl.KeepRecent) and policy.full == 0:
+        # each step is retired as it ends: the live queries see none, the records all
+        assert seen["live steps"] == [] and seen["failed"] == []
+        assert seen["snap steps"] == [repr(i) for i in range(10)]
+        assert summary.retired == 10 and summary.tasks == 19
+        assert summary.by_status == {"succeeded": 9, "failed": 1}
+        return
     # the newest 3 finished steps stay whole (the live queries see them); 7 were retired
     assert [a["i"] for a in seen["live steps"]] == [7, 8, 9]
     assert summary.retired == 7 and summary.by_status == {"succeeded": 7}
-    # nothing is lost from the count: every task is shown or counted
     assert summary.tasks == 14
-    assert seen["size"] == 1 + 9 * 2 + 1
     if isinstance(policy, cpl.KeepRecent) and policy.records is None:
         assert seen["snap steps"] == [repr(i) for i in range(10)]
         assert [n.collapsed for n in seen["retired"]] == [1] * 7
