@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from rich.console import Console
 
 import cpl
 from cpl._eventlog import load_events
@@ -108,13 +109,16 @@ def test_queries_snapshot_and_live_view_under_each_policy(policy: cpl.Retention)
         seen["view"] = render_text(
             root.snapshot(max_nodes=6, collapse_finished=True), ascii=True, width=100
         )
-        seen["view renderable"] = live.renderable()
+        console = Console(file=io.StringIO(), width=100, color_system=None)
+        console.print(live.renderable())
+        seen["live view"] = console.file.getvalue()  # type: ignore[attr-defined]
         seen["summary"] = cpl.retention_summary(root)
         seen["retired"] = cpl.retired(root)
 
     cpl.run(main, name="svc", retention=policy)
     # the failure is visible in the live view and in the snapshot under every policy
     assert "step#9" in seen["view"] and "the gripper slipped" in seen["view"]
+    assert "step#9" in seen["live view"] and "the gripper slipped" in seen["live view"]
     assert seen["snap failed"] == [("svc", "step#9")]
     summary = seen["summary"]
     if isinstance(policy, cpl.KeepAll):
