@@ -53,7 +53,7 @@ from typing import IO, TYPE_CHECKING, Any
 
 from ._instruments import Instrument
 from ._status import Status
-from ._tree import FailureInfo, TaskNode, task_fields
+from ._tree import FailureInfo, TaskNode, _one_line, failure_info, short_repr
 
 if TYPE_CHECKING:
     from ._eventlog import EventLog
@@ -327,33 +327,44 @@ def _hideable(record: _Record) -> bool:
     return Status(record[3]) in _HIDEABLE and not record[13]
 
 
-def _pairs(mapping: Mapping[str, Any]) -> tuple[tuple[str, Any], ...]:
-    return tuple(
-        (k, v if isinstance(v, str | int | float | None) else str(v)) for k, v in mapping.items()
-    )
+_ATOMIC = (str, int, float, bool, type(None))
+
+
+def _short(value: Any) -> Any:
+    return value if type(value) in _ATOMIC else short_repr(value)
+
+
+def _pairs(mapping: Mapping[str, Any] | None) -> tuple[tuple[str, Any], ...]:
+    if not mapping:
+        return ()
+    return tuple((str(k), _short(v)) for k, v in mapping.items())
 
 
 def _record(task: Task, size: int, failed_below: int) -> _Record:
-    fields = task_fields(task, ())
-    failure: FailureInfo | None = fields["failure"]
+    """The compact record of a dead task: only strings, numbers, None and tuples of them
+    (what :func:`cpl._tree.task_fields` keeps, with plain values kept as they are)."""
+    state = task._state
+    failure = task.failure
+    evaporation = task.evaporation
+    info = failure_info(failure) if failure is not None else None
     return (
         task.path_entry,
-        fields["name"],
-        fields["kind"],
-        fields["status"].value,
-        fields["start_time"],
-        fields["end_time"],
+        task.name,
+        task.kind,
+        state.value,
+        task.start_time,
+        task.end_time,
         size,
-        _pairs(fields["arguments"]),
-        fields["result"],
+        tuple((str(k), short_repr(v)) for k, v in (task.arguments or {}).items()),
+        short_repr(task.result) if state is Status.SUCCEEDED else None,
         (
-            (failure.type, failure.cram_name, failure.message, _pairs(failure.details))
-            if failure is not None
+            (info.type, info.cram_name, info.message, tuple(info.details.items()))
+            if info is not None
             else None
         ),
-        fields["evaporated_by"],
-        fields["evaporation_reason"],
-        _pairs(fields["annotations"]),
+        (tuple(evaporation.by) if evaporation is not None and evaporation.by is not None else None),
+        _one_line(str(evaporation.reason), 200) if evaporation is not None else None,
+        _pairs(task.annotations),
         failed_below,
     )
 

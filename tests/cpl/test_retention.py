@@ -244,6 +244,27 @@ def test_a_held_retired_task_keeps_its_own_fields() -> None:
     assert first.children == []  # retired: the record counts them
 
 
+def test_records_keep_failures_and_evaporations_as_text() -> None:
+    async def main() -> list[cpl.TaskNode]:
+        slow = cpl.Task(cpl.sleep(10), name="slow")
+        slow.start()
+        await cpl.sleep(0)
+        slow.evaporate("not needed any more")
+        await cpl.wait_for(cpl.task_dead(slow))
+        with pytest.raises(cpl.PlanFailure):
+            await cpl.with_task(broken(), name="grasp", arguments={"arm": "left"})
+        await service(3)
+        root = cpl.current_task()
+        assert root is not None
+        return cpl.retired(root)
+
+    records = cpl.run(main, name="svc", retention=cpl.KeepRecent(1))
+    slow, grasp = records[0], records[1]
+    assert slow.evaporated and slow.evaporation_reason == "not needed any more"
+    assert grasp.failed and grasp.arguments == {"arm": "'left'"}
+    assert grasp.failure is not None and grasp.failure.message == "the gripper slipped"
+
+
 def test_freeze_is_undone_at_the_end() -> None:
     assert gc.get_freeze_count() == 0
     frozen: list[int] = []
