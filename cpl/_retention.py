@@ -51,6 +51,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import IO, TYPE_CHECKING, Any
 
+from ._cleanup import log_cleanup_failures
 from ._instruments import Instrument
 from ._status import Status
 from ._tree import FailureInfo, TaskNode, _one_line, failure_info, short_repr
@@ -253,6 +254,7 @@ class _Retainer(Instrument):
     # ----------------------------------------------------------------- retiring
     def _retire(self, task: Task) -> None:
         failed_below = 0
+        cleanup_failed = False
         subtree = [task]
         i = 0
         while i < len(subtree):
@@ -260,11 +262,17 @@ class _Retainer(Instrument):
             i += 1
             if t._state.alive:
                 return  # cannot happen for a finished child (its subtree is torn down)
-            if t._state is Status.FAILED and t is not task:
-                failed_below += 1
+            if t._state is Status.FAILED:
+                if t is not task:
+                    failed_below += 1
+                if t.evaporation is not None and t.failure is not None:
+                    cleanup_failed = True
             if t._children:
                 subtree.extend(t._children)
         size = len(subtree)
+        if cleanup_failed:
+            # logged now, as the run's end would have (it will not see this subtree)
+            log_cleanup_failures(task)
         children = self.root._children
         if children is None:
             return

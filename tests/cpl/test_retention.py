@@ -265,6 +265,28 @@ def test_records_keep_failures_and_evaporations_as_text() -> None:
     assert grasp.failure is not None and grasp.failure.message == "the gripper slipped"
 
 
+def test_a_cleanup_failure_of_a_retired_subtree_is_logged(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    async def quick() -> None:
+        await cpl.sleep(0)
+
+    async def parks_badly() -> None:
+        try:
+            await cpl.sleep(10)
+        finally:
+            raise RuntimeError("the arm did not park")
+
+    async def main() -> None:
+        await cpl.pursue(quick(), parks_badly())
+        await service(3)
+
+    with caplog.at_level("ERROR", logger="cpl.cleanup"):
+        cpl.run(main, name="svc", retention=cpl.KeepRecent(0))
+    logged = [r.getMessage() for r in caplog.records if r.name == "cpl.cleanup"]
+    assert len(logged) == 1 and "the arm did not park" in logged[0]
+
+
 def test_freeze_is_undone_at_the_end() -> None:
     assert gc.get_freeze_count() == 0
     frozen: list[int] = []
