@@ -4,6 +4,7 @@ queries, and ``next_solution`` reachable from the plan's own designator."""
 from __future__ import annotations
 
 import gc
+import weakref
 from collections.abc import Iterator
 from typing import Any
 
@@ -101,3 +102,35 @@ def test_performed_sees_what_is_kept_in_full(policy: cpl.Retention) -> None:
         # the records keep the designator as its short repr
         assert all("moving" in str(n.annotations["designator"]) for n in snap.children)
     assert sum(1 + n.collapsed for n in snap.walk()) == 1 + 8 * 2
+
+
+def test_a_kept_designator_does_not_keep_its_retired_task() -> None:
+    kept: list[Any] = []  # the plan keeps its motion designators (to ask them later)
+    plan_tasks: list[Any] = []
+
+    async def go_and_keep() -> None:
+        me = cpl.current_task()
+        plan_tasks.append(weakref.ref(me))
+        motion = a.motion(type="going", pose=P)
+        kept.append(motion)
+        await perform(motion)
+
+    def rule(d: Any) -> Iterator[Any]:
+        yield go_and_keep, {}
+
+    r = RuleSet()
+    r.register("action", "keeping", rule)
+
+    async def main() -> None:
+        async with environment(rules=r, process_modules=[FakeProcessModule("nav", history=1)]):
+            for _ in range(10):
+                await perform(an.action(type="keeping"))
+
+    gc.disable()
+    try:
+        cpl.run(main, name="svc", retention=cpl.KeepRecent(0, records=0))
+        alive = [ref() is not None for ref in plan_tasks]
+    finally:
+        gc.enable()
+    assert alive == [False] * 10
+    assert all(m.reference()[0] == "move-base" for m in kept)  # still usable
