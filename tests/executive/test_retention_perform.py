@@ -134,3 +134,19 @@ def test_a_kept_designator_does_not_keep_its_retired_task() -> None:
         gc.enable()
     assert alive == [False] * 10
     assert all(m.reference()[0] == "move-base" for m in kept)  # still usable
+
+
+def test_fake_history_keeps_the_newest_and_counts_every_goal() -> None:
+    fake = FakeProcessModule("nav", history=3, fail_on={7: RuntimeError})
+
+    async def main() -> None:
+        async with environment(process_modules=[fake]):
+            for _ in range(6):
+                await perform(a.motion(type="going", pose=P))
+            with pytest.raises(RuntimeError):  # the 7th goal, counted past the trimming
+                await perform(a.motion(type="going", pose=P))
+
+    cpl.run(main)
+    assert fake.goals == 7 and 3 <= len(fake.calls) < 6
+    with pytest.raises(ValueError, match="history"):
+        FakeProcessModule("nav", history=0)
