@@ -212,6 +212,7 @@ class _Retainer(Instrument):
         # of the records whose subtree is folded away without failure (collapsible).
         self.record_tasks = 0
         self.record_hideable_tasks = 0
+        self.records_shown = 0  # records with a failure: those a collapsing view shows
         # Invariant: children retired and not kept as records, and their tasks.
         self.dropped = 0
         self.dropped_tasks = 0
@@ -302,12 +303,16 @@ class _Retainer(Instrument):
         self.record_tasks += size
         if _hideable(record):
             self.record_hideable_tasks += size
+        else:
+            self.records_shown += 1
         if self.max_records is not None:
             while len(self.records) > self.max_records:
                 old = self.records.popleft()
                 self.record_tasks -= old[6]
                 if _hideable(old):
                     self.record_hideable_tasks -= old[6]
+                else:
+                    self.records_shown -= 1
                 self._drop(old[6])
 
     def _drop(self, size: int) -> None:
@@ -328,11 +333,16 @@ class _Retainer(Instrument):
     def nodes(self, parent_path: tuple[str, ...], *, only_failed: bool) -> list[TaskNode]:
         """The records as childless TaskNodes (oldest first); ``only_failed``: only those
         that failed or have a failure below."""
+        if only_failed and not self.records_shown:
+            return []  # a live view's frame need not scan the records
         return [_node(r, parent_path) for r in self.records if not (only_failed and _hideable(r))]
 
 
+_HIDEABLE_VALUES = frozenset(s.value for s in _HIDEABLE)
+
+
 def _hideable(record: _Record) -> bool:
-    return Status(record[3]) in _HIDEABLE and not record[13]
+    return record[3] in _HIDEABLE_VALUES and not record[13]
 
 
 _ATOMIC = (str, int, float, bool, type(None))

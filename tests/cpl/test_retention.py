@@ -287,6 +287,23 @@ def test_a_cleanup_failure_of_a_retired_subtree_is_logged(
     assert len(logged) == 1 and "the arm did not park" in logged[0]
 
 
+def test_a_collapsing_view_shows_failed_records_until_they_are_dropped() -> None:
+    async def main() -> list[int]:
+        root = cpl.current_task()
+        assert root is not None
+        shown = []
+        with pytest.raises(cpl.PlanFailure):
+            await cpl.with_task(broken(), name="grasp")
+        for _ in range(3):
+            snap = root.snapshot(collapse_finished=True)
+            shown.append(len(snap.find_all("grasp")))
+            await cpl.with_task(step(0), name="step")
+        return shown
+
+    # the failed record is shown while it is among the 2 records kept, then only counted
+    assert cpl.run(main, retention=cpl.KeepRecent(0, records=2)) == [1, 1, 0]
+
+
 def test_freeze_is_undone_at_the_end() -> None:
     assert gc.get_freeze_count() == 0
     frozen: list[int] = []
