@@ -558,7 +558,6 @@ def _retained_records(
     path: tuple[str, ...],
     collapse_finished: bool,
     collapsed: list[int],
-    truncated: list[int],
 ) -> list[TaskNode]:
     """When ``task`` is the top level of a run with a retention policy: its compact records
     (only those with a failure when ``collapse_finished``; the others are counted in
@@ -616,7 +615,7 @@ def snapshot(
         collapsed.append(0)
         truncated.append(0)
         if parent < 0:
-            records = _retained_records(t, paths[0], collapse_finished, collapsed, truncated)
+            records = _retained_records(t, paths[0], collapse_finished, collapsed)
             if max_nodes is not None and records:
                 # records take at most half the room left (the newest), the live tasks the rest
                 cut = len(records) - max(0, (max_nodes - 1) // 2)
