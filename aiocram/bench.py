@@ -49,6 +49,12 @@ BENCHMARKS: tuple[tuple[str, tuple[str, ...], str], ...] = (
         "a robot running all day: 1 M action performs in one top level under the "
         "long-running retention policy (RSS, full-collection pauses, flatness) vs asyncio",
     ),
+    (
+        "soak_table.py",
+        ("--hours", "1"),
+        "a projected robot setting the table in a loop for an hour of simulated time in one "
+        "top level (long-running retention): RSS, pauses, flatness",
+    ),
     ("projection_ops.py", ("--reps", "1000"), "projection operations vs raw PyBullet"),
     ("projection_costmaps.py", (), "costmap sampling and building vs numpy / rayTestBatch"),
     ("projection_demo.py", ("--seeds", "5"), "bowl transport and five-object demo in projection"),
@@ -206,6 +212,7 @@ def _quick_args(script: str) -> tuple[str, ...]:
         "blocking_driver.py": ("--rounds", "1"),
         "executive_perform.py": ("2000",),
         "soak.py": ("--quick",),
+        "soak_table.py": ("--quick",),
         "projection_ops.py": ("--reps", "50"),
         "projection_costmaps.py": ("--reps", "50"),
         "projection_demo.py": ("--seeds", "1"),
