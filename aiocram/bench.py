@@ -43,6 +43,18 @@ BENCHMARKS: tuple[tuple[str, tuple[str, ...], str], ...] = (
         ("--rounds", "3"),
         "event-loop latency while a blocking driver runs in a worker thread vs on the loop",
     ),
+    (
+        "soak.py",
+        ("--performs", "1000000"),
+        "a robot running all day: 1 M action performs in one top level under the "
+        "long-running retention policy (RSS, full-collection pauses, flatness) vs asyncio",
+    ),
+    (
+        "soak_table.py",
+        ("--hours", "1"),
+        "a projected robot setting the table in a loop for an hour of simulated time in one "
+        "top level (long-running retention): RSS, pauses, flatness",
+    ),
     ("projection_ops.py", ("--reps", "1000"), "projection operations vs raw PyBullet"),
     ("projection_costmaps.py", (), "costmap sampling and building vs numpy / rayTestBatch"),
     ("projection_demo.py", ("--seeds", "5"), "bowl transport and five-object demo in projection"),
@@ -199,6 +211,8 @@ def _quick_args(script: str) -> tuple[str, ...]:
         "cpl_overhead.py": ("--sizes", "1000", "--repeat", "1", "--waiters", "1", "100"),
         "blocking_driver.py": ("--rounds", "1"),
         "executive_perform.py": ("2000",),
+        "soak.py": ("--quick",),
+        "soak_table.py": ("--quick",),
         "projection_ops.py": ("--reps", "50"),
         "projection_costmaps.py": ("--reps", "50"),
         "projection_demo.py": ("--seeds", "1"),

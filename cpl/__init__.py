@@ -59,6 +59,15 @@ from ._policies import (
     with_policy,
 )
 from ._queries import ancestors, find_tasks, previous_sibling, walk
+from ._retention import (
+    KeepAll,
+    KeepRecent,
+    Retention,
+    RetentionSummary,
+    StreamFinished,
+    retention_summary,
+    retired,
+)
 from ._runtime import RunHistory, RunTimeout, run, task_tree, top_level
 from ._status import Status
 from ._subtree import Subtree, subtree_of, within
@@ -79,6 +88,8 @@ __all__ = [
     "FailureInfo",
     "Fluent",
     "Instrument",
+    "KeepAll",
+    "KeepRecent",
     "LazyList",
     "Plan",
     "PlanCall",
@@ -88,11 +99,14 @@ __all__ = [
     "PolicyFailure",
     "PolicyInitFailed",
     "PolicyTimeout",
+    "Retention",
+    "RetentionSummary",
     "RetryCounter",
     "RunHistory",
     "RunTimeout",
     "ScaledClock",
     "Status",
+    "StreamFinished",
     "Subtree",
     "SystemClock",
     "Tagged",
@@ -124,6 +138,8 @@ __all__ = [
     "previous_sibling",
     "pulsed",
     "pursue",
+    "retention_summary",
+    "retired",
     "retry",
     "return_",
     "run",

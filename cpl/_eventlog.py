@@ -9,7 +9,9 @@ and every task creation and status change of the run becomes one JSON object per
 Events: ``run-started`` (the top-level task), ``task-started`` (a task was created; it
 is CREATED and may start later), ``task-status`` (RUNNING or SUSPENDED), ``task-finished``
 (a dead status, with result, failure or evaporation), ``fluent-changed`` (only with
-``fluents=True``) and ``run-finished`` (the top level and its subtree are dead). ``t`` is
+``fluents=True``), ``subtree`` (a finished child's whole subtree in one event, as
+:class:`cpl.StreamFinished` writes them: ``nodes`` in :meth:`cpl.TaskNode.to_dict`'s
+layout) and ``run-finished`` (the top level and its subtree are dead). ``t`` is
 the event loop's clock. Values are the short strings of :mod:`cpl._tree`'s snapshots, so
 :func:`tree_from_log` rebuilds exactly the tree :func:`cpl._tree.snapshot` would give at
 the end of the run (except ``waiting_on``, which is not logged).
@@ -220,6 +222,23 @@ class EventLog(Instrument):
                 }
             )
 
+    def subtree(self, task: TaskLike) -> None:
+        """Write ``task``'s whole (finished) subtree as one ``subtree`` event: its
+        :meth:`~cpl.TaskNode.to_dict` nodes below ``parent`` (what
+        :class:`cpl.StreamFinished` writes for each child it retires)."""
+        from ._tree import snapshot
+
+        path = tuple(task.path)
+        self._emit(
+            {
+                "event": "subtree",
+                "t": _now(),
+                "path": list(path),
+                "parent": list(path[:-1]),
+                "nodes": snapshot(task).to_dict()["nodes"],
+            }
+        )
+
     def fluent_changed(self, fluent: Fluent[Any], value: Any) -> None:
         if not self._fluents:
             return
@@ -400,6 +419,38 @@ def _check_event(ev: Mapping[str, Any], where: str) -> None:
         raise ValueError(f"{where}: a run-started event needs a 'status'")
 
 
+def _add_subtree(
+    ev: Mapping[str, Any],
+    records: dict[tuple[str, ...], dict[str, Any]],
+    children: dict[tuple[str, ...], list[tuple[str, ...]]],
+) -> None:
+    """Add a ``subtree`` event's nodes below its parent (replacing what the log said of
+    that subtree before: a task's last report wins)."""
+    parent = tuple(ev.get("parent") or ())
+    nodes = ev.get("nodes")
+    if parent not in records or not isinstance(nodes, list) or not nodes:
+        raise ValueError(
+            f"event log is inconsistent: subtree {'/'.join(ev['path'])!r} under unknown "
+            f"parent {parent!r} or without nodes"
+        )
+    paths: list[tuple[str, ...]] = []
+    for i, node in enumerate(nodes):
+        path = tuple(node["path"])
+        index = node.get("parent")
+        up = parent if i == 0 else paths[index]
+        paths.append(path)
+        if path not in records:
+            children[up].append(path)
+        else:  # reported before (a full event log in the same file): start it afresh
+            stack = list(children.get(path, ()))
+            while stack:
+                gone = stack.pop()
+                stack.extend(children.pop(gone, ()))
+                records.pop(gone, None)
+        records[path] = {**node, "parent": up, "path": path}
+        children[path] = []
+
+
 _STATE_KEYS = (
     "status",
     "start_time",
@@ -459,10 +510,14 @@ def tree_from_log(
             "task-status",
             "task-finished",
             "run-finished",
+            "subtree",
         ):
             continue
         _check_event(ev, where)
         path = tuple(ev["path"])
+        if kind == "subtree":
+            _add_subtree(ev, records, children)
+            continue
         if kind in ("run-started", "task-started"):
             moved = ev.get("moved_from")
             if moved is not None:

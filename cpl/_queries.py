@@ -4,6 +4,10 @@ They read :class:`~cpl.Task` objects as they are now (a running tree may grow wh
 walk it; a walk sees the children that exist when it reaches a node). Children are
 visited in creation order, so "before" and "after" mean "created before/after" (CRAM's
 sibling order). Nothing here changes a task.
+
+Under a retention policy (``cpl.KeepRecent``, ``cpl.StreamFinished``) they see the tasks
+the run keeps whole: the top level's retired children are in :func:`cpl.retired` and in
+snapshots, not among the live tasks.
 """
 
 from __future__ import annotations

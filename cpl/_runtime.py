@@ -23,6 +23,7 @@ from ._cleanup import log_cleanup_failures
 from ._clock import Clock
 from ._failure_handling import _Retry, _Return
 from ._instruments import Instrument, InstrumentSet
+from ._retention import KeepAll, Retention, _Retainer
 from ._scheduling import CURRENT_TASK, DeferredCancellation
 from ._task import Task, _Driver, as_coroutine
 
@@ -46,12 +47,16 @@ __all__ = [
 class Run:
     """One top-level run: its root task and its instruments."""
 
-    __slots__ = ("__weakref__", "before", "instruments", "name", "root")
+    __slots__ = ("__weakref__", "before", "instruments", "name", "retention", "root")
 
     def __init__(self, name: str, instruments: Iterable[Instrument]) -> None:
         self.name = name
         self.instruments = InstrumentSet(instruments)
         self.root: Task | None = None
+        # Invariant: None when the run keeps its whole tree (cpl.KeepAll), else the
+        # retainer of its retention policy, which is also the last of its instruments
+        # (it sees a child finish after every other instrument did).
+        self.retention: _Retainer | None = None
         # Invariant: the asyncio tasks of the loop that existed when the run started
         # (weakly held); every other asyncio task was created during the run.
         self.before: weakref.WeakSet[asyncio.Task[Any]] = weakref.WeakSet()
@@ -133,6 +138,7 @@ async def top_level(
     history: RunHistory | None = None,
     timeout: float | None = None,
     cleanup_timeout: float = 30.0,
+    retention: Retention | None = None,
     _own_loop: bool = False,
 ) -> Any:
     """Run a plan as a top-level task inside a running event loop.
@@ -153,11 +159,17 @@ async def top_level(
     backend="asyncio")``); awaiting it on trio raises ``RuntimeError`` (see
     ``docs/async_interop.md``).
 
+    ``retention`` (a :class:`cpl.Retention`: :class:`cpl.KeepAll`, the default,
+    :class:`cpl.KeepRecent` or :class:`cpl.StreamFinished`) says how much of the recorded
+    tree stays in memory; a robot running all day in one top level should not keep it all
+    (see ``cpl._retention``).
+
     (``_own_loop`` is for :func:`run`: the loop is fresh, so the asyncio tasks there
     before the run need not be listed for :func:`stray_asyncio_tasks`.)
     """
     _require_asyncio("cpl.top_level", fn)
     _check_timeouts(timeout, cleanup_timeout)
+    _check_retention(retention, fn)
     if CURRENT_TASK.get() is not None:
         raise RuntimeError(
             "top-level calls cannot be nested: you are already inside cpl task "
@@ -181,6 +193,10 @@ async def top_level(
     root = Task(coro, label, kind="top-level", _register=False)
     root._run = run_
     run_.root = root
+    retainer = (retention or _KEEP_ALL)._start(root)
+    if retainer is not None:
+        run_.retention = retainer
+        run_.instruments.add(retainer)
     for hook in run_.instruments.run_started:
         hook(root)
     _ACTIVE.add(root)
@@ -248,6 +264,7 @@ def run(
     debug: bool | None = None,
     timeout: float | None = None,
     cleanup_timeout: float = 30.0,
+    retention: Retention | None = None,
 ) -> Any:
     """Run a plan in a new event loop (like ``asyncio.run``) as a top level.
 
@@ -256,7 +273,7 @@ def run(
     failure; every task is dead when it returns. ``timeout``/``cleanup_timeout`` as in
     :func:`top_level`; when tasks are stuck even after the cleanup time, the loop is closed
     without waiting for them (``asyncio.run`` would hang there) and :class:`RunTimeout`
-    says which they are.
+    says which they are. ``retention`` as in :func:`top_level`.
     """
     if CURRENT_TASK.get() is not None:
         raise RuntimeError("cpl.run cannot be called from inside a cpl task; await the plan")
@@ -268,6 +285,7 @@ def run(
             "`await cpl.top_level(plan, ...)` there"
         )
     _check_timeouts(timeout, cleanup_timeout)
+    _check_retention(retention, fn)
 
     def factory() -> asyncio.AbstractEventLoop:
         loop = asyncio.new_event_loop()
@@ -286,6 +304,7 @@ def run(
                 history=history,
                 timeout=timeout,
                 cleanup_timeout=cleanup_timeout,
+                retention=retention,
                 _own_loop=True,
             )
         )
@@ -401,6 +420,18 @@ class RunTimeout(TimeoutError):
         else:
             msg = f"the run exceeded its timeout of {timeout:g} s; it was evaporated"
         super().__init__(msg)
+
+
+_KEEP_ALL = KeepAll()
+
+
+def _check_retention(retention: Any, fn: Any) -> None:
+    if retention is not None and not isinstance(retention, Retention):
+        _close(fn)
+        raise TypeError(
+            f"retention must be a cpl.Retention policy (cpl.KeepAll(), cpl.KeepRecent(n), "
+            f"cpl.StreamFinished(path)), got {retention!r}"
+        )
 
 
 def _check_timeouts(timeout: float | None, cleanup_timeout: float) -> None:

@@ -560,6 +560,26 @@ def _finished_size(task: TaskLike) -> int | None:
     return count
 
 
+def _retained_records(
+    task: TaskLike,
+    path: tuple[str, ...],
+    collapse_finished: bool,
+    collapsed: list[int],
+) -> list[TaskNode]:
+    """When ``task`` is the top level of a run with a retention policy: its compact records
+    (only those with a failure when ``collapse_finished``; the others are counted in
+    ``collapsed[0]``, as the children the policy dropped)."""
+    run = getattr(task, "_run", None)
+    retainer = getattr(run, "retention", None)
+    if retainer is None or retainer.root is not task:
+        return []
+    collapsed[0] += retainer.dropped_tasks
+    if collapse_finished:
+        collapsed[0] += retainer.record_hideable_tasks
+    nodes: list[TaskNode] = retainer.nodes(path, only_failed=collapse_finished)
+    return nodes
+
+
 def snapshot(
     task: TaskLike, *, max_nodes: int | None = None, collapse_finished: bool = False
 ) -> TaskNode:
@@ -572,6 +592,11 @@ def snapshot(
     ``collapsed`` count, so failures and alive tasks stay visible. ``max_nodes``
     keeps the first that many tasks in pre-order and counts the rest in ``truncated``.
     Folded and cut subtrees are only counted, not copied.
+
+    Under a retention policy (``cpl.KeepRecent``, ``cpl.StreamFinished``) a snapshot of
+    the run's top level shows the compact records of its retired children first (oldest
+    first; with ``max_nodes``, at most half the room, the newest) and counts the children
+    the policy dropped in the top level's ``collapsed``.
     """
     if max_nodes is not None and max_nodes < 1:
         raise ValueError(f"max_nodes must be at least 1, got {max_nodes}")
@@ -581,9 +606,13 @@ def snapshot(
     collapsed: list[int] = []
     truncated: list[int] = []
     stack: list[tuple[TaskLike, int]] = [(task, -1)]
+    # the compact records of a retention policy (cpl._retention), shown first below the
+    # top of the run; `extra` counts them against max_nodes
+    records: list[TaskNode] = []
+    extra = 0
     while stack:
         t, parent = stack.pop()
-        if max_nodes is not None and len(tasks) >= max_nodes:
+        if max_nodes is not None and len(tasks) + extra >= max_nodes:
             truncated[parent] += _subtree_size(t)
             continue
         index = len(tasks)
@@ -592,6 +621,15 @@ def snapshot(
         parents.append(parent)
         collapsed.append(0)
         truncated.append(0)
+        if parent < 0:
+            records = _retained_records(t, paths[0], collapse_finished, collapsed)
+            if max_nodes is not None and records:
+                # records take at most half the room left (the newest), the live tasks the rest
+                cut = len(records) - max(0, (max_nodes - 1) // 2)
+                if cut > 0:
+                    truncated[0] += sum(r.collapsed + 1 for r in records[:cut])
+                    del records[:cut]
+            extra = len(records)
         shown: list[TaskLike] = []
         for c in t.children:
             size = _finished_size(c) if collapse_finished else None
@@ -602,7 +640,7 @@ def snapshot(
         if max_nodes is not None:
             # Pre-order takes at most `room` more tasks, so children past the first `room`
             # can never be shown: count them now instead of queueing them one by one.
-            room = max_nodes - len(tasks)
+            room = max_nodes - len(tasks) - extra
             if len(shown) > room:
                 truncated[index] += sum(_subtree_size(c) for c in shown[room:])
                 del shown[room:]
@@ -613,7 +651,7 @@ def snapshot(
         kids[i].reverse()
         node = TaskNode(
             **task_fields(tasks[i], paths[i]),
-            children=tuple(kids[i]),
+            children=(*records, *kids[i]) if i == 0 else tuple(kids[i]),
             collapsed=collapsed[i],
             truncated=truncated[i],
         )

@@ -33,6 +33,7 @@ from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING, Any, ClassVar, Final, Self, cast
 
 from cpl import LazyList
+from cpl._scheduling import CURRENT_TASK
 
 from ._environment import Environment, current_environment
 from ._pose import Pose, Transform
@@ -111,7 +112,11 @@ class _SolutionStream:
         self._first: Any = _NONE
         self._more: list[Any] | None = None
         self._it: Iterator[Any] | None = it
+        # The creator's context (the environment, the timeline of a projection), without
+        # the creator's task: the rules run outside the task tree, and a designator kept
+        # by a plan must not keep the task (and, through it, the tree) that referenced it.
         self._ctx = contextvars.copy_context()
+        self._ctx.run(CURRENT_TASK.set, None)
         self._error: Exception | None = None
 
     def _count(self) -> int:

@@ -6,6 +6,11 @@ which designators (CRAM's ``task-tree-prolog.lisp``, as plain functions over liv
 (``task.annotations["designator"]``); a task *performs* ``action_type`` when that
 designator is an action of that type. The task's own name is the plan's (``fetch``,
 ``go-without-collisions``), so queries go by the designator, not the name.
+
+Under a retention policy that retires finished top-level actions (``cpl.KeepRecent``,
+``cpl.StreamFinished``) they see the tasks kept whole; a retired action's record keeps
+its designator as a short string (``cpl.retired(root)``), and a plan that needs the
+designator itself (``next_solution()``) keeps it in its own variable.
 """
 
 from __future__ import annotations

@@ -318,7 +318,9 @@ class FakeProcessModule(ProcessModule):
       environment's parts are its modules', see :attr:`executive.Environment.resources`).
 
     ``calls`` lists the motions of started goals, ``cancelled`` the motions given to
-    ``on_cancel``, ``completed`` the motions that finished successfully.
+    ``on_cancel``, ``completed`` the motions that finished successfully. ``history=n``
+    keeps only (at least) the newest ``n`` motions in each list, for a module that runs
+    all day (a soak test); ``goals`` counts every goal that started either way.
     """
 
     def __init__(
@@ -331,8 +333,11 @@ class FakeProcessModule(ProcessModule):
         delay: float = 0.0,
         cancel_delay: float = 0.0,
         resources: Collection[Resource] = (),
+        history: int | None = None,
     ) -> None:
         super().__init__(name)
+        if history is not None and (type(history) is not int or history < 1):
+            raise ValueError(f"history must be an int >= 1 or None (keep all), got {history!r}")
         parts = frozenset(resources)
         for part in parts:
             if not isinstance(part, Resource):
@@ -349,23 +354,34 @@ class FakeProcessModule(ProcessModule):
         self.calls: list[Designator] = []
         self.completed: list[Designator] = []
         self.cancelled: list[Designator] = []
+        self.history = history  # None: the lists keep every motion
+        self.goals = 0  # goals started (fail_on numbers them), whatever history keeps
+
+    def _trim(self, motions: list[Designator]) -> None:
+        # amortised: cut back to `history` once the list holds twice as many
+        if self.history is not None and len(motions) >= 2 * self.history:
+            del motions[: -self.history]
 
     def accepts(self, motion: Designator) -> bool:
         return self._accepts(motion)
 
     async def execute(self, motion: Designator) -> Any:
         self.calls.append(motion)
-        n = len(self.calls)
+        self._trim(self.calls)
+        self.goals += 1
+        n = self.goals
         if self.delay > 0:
             await cpl.sleep(self.delay)
         failure = self.fail_on.get(n)
         if failure is not None:
             raise failure() if isinstance(failure, type) else failure
         self.completed.append(motion)
+        self._trim(self.completed)
         return self.result(motion) if callable(self.result) else self.result
 
     async def on_cancel(self, motion: Designator) -> None:
         self.cancelled.append(motion)
+        self._trim(self.cancelled)
         if self.cancel_delay > 0:
             await cpl.sleep(self.cancel_delay)
 
