@@ -39,7 +39,11 @@ _SCRIPT = textwrap.dedent(
             deadline = time.monotonic() + 30  # the parent: Ctrl-C twice meanwhile
             while not child_pid.exists() and time.monotonic() < deadline:
                 time.sleep(0.01)
+            # two presses, the second once the first was handled (signals do not queue:
+            # two sent at once may arrive as one)
             os.kill(os.getpid(), signal.SIGINT)
+            while interrupts.count < 1 and time.monotonic() < deadline:
+                time.sleep(0.01)
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(30)
 
