@@ -342,9 +342,10 @@ def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]
     except StoreError as exc:
         print(f"aiocram demo: the run was not recorded: {exc}", file=sys.stderr)
         return
-    url = store_url(config.store)
-    if url.get_backend_name() == "sqlite":
-        files.append(Path(str(url.database)))
+    if store_url(config.store).get_backend_name() == "sqlite":
+        # listed as it was given (OUT/experience.sqlite), like the run's other files
+        given = str(config.store)
+        files.append(Path(given.split("///", 1)[1] if "://" in given else given))
 
 
 @contextlib.contextmanager

@@ -32,7 +32,9 @@ _SCRIPT = textwrap.dedent(
 
         def figures(self, engine, staging, part):
             if part == (1, 2):  # the child: a slow picture
-                child_pid.write_text(str(os.getpid()))
+                written = child_pid.with_suffix(".tmp")  # whole or absent: renamed
+                written.write_text(str(os.getpid()))
+                written.rename(child_pid)
                 time.sleep(30)
                 (staging / "late.png").write_text("drawn after the command ended")
                 return
