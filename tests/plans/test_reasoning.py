@@ -478,8 +478,9 @@ def test_reasoning_inside_projection_is_a_pass_through(mrun):
         async def main():
             async with projection.with_projected_robot(world) as env:
                 assert env.projecting
-                return cpl.current_task(), await plans.table_setting(world, ("bowl",), True, 1)
+                return cpl.current_task(), await plans.table_setting(("bowl",))
 
+        projection.set_up_scene(world, ("bowl",), seed=1, settle_steps=0)
         root, outcome = mrun(main)
         assert outcome["bowl"].success
         assert not {t.name for t in cpl_walk(root)} & {*RUN_NAMES, "real-run"}
