@@ -50,7 +50,6 @@ from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
 
 __all__ = [
-    "FIXED_POSES",
     "OBJECTS",
     "ObjectOutcome",
     "TransportEnded",
@@ -70,8 +69,6 @@ DRAWER_LINK = kitchen.DRAWER_LINK
 
 #: The demo's objects, in CRAM's order (see :data:`executive.kitchen.DEMO_OBJECTS`).
 OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
-#: CRAM's fixed spawning poses (map; :data:`executive.kitchen.DEMO_POSES`).
-FIXED_POSES: Mapping[str, Pose] = kitchen.DEMO_POSES
 #: CRAM's fixed placing pose of the cereal, map (-0.78, 0.8, 0.95), quaternion
 #: (0, 0, 0.6, 0.4) (normalised: yaw ~112.6 deg), adapted to our frames (deliberate
 #: deviation): z = island top 0.85 + half the box height 0.29 = 0.995, because our object
