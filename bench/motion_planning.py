@@ -196,16 +196,17 @@ def transport(flag: bool) -> None:
     import cpl
     import plans
     from cpl.testing import MockClock
-    from projection import FaultProfile, with_projected_robot, with_real_robot
+    from projection import FaultProfile, set_up_scene, with_projected_robot, with_real_robot
 
     world = World(seed=0)
     world.arm_motion_planning = flag
 
     async def projected() -> dict[str, plans.ObjectOutcome]:
         async with with_projected_robot(world):
-            return await plans.table_setting(world, ("bowl",), False, 1)
+            return await plans.table_setting(("bowl",))
 
     t0 = time.perf_counter()
+    set_up_scene(world, ("bowl",), random=False, settle_steps=0)
     out = cpl.run(projected, clock=MockClock())["bowl"]
     dt = time.perf_counter() - t0
     hits = sum(p.cache_hits for p in world._arm_planners.values())
@@ -219,9 +220,10 @@ def transport(flag: bool) -> None:
 
     async def real() -> dict[str, plans.ObjectOutcome]:
         async with with_real_robot(true, belief, FaultProfile(seed=1)):
-            return await plans.table_setting(true, ("bowl",), False, 1)
+            return await plans.table_setting(("bowl",))
 
     t0 = time.perf_counter()
+    set_up_scene(true, ("bowl",), random=False, settle_steps=0)
     out = cpl.run(real, clock=MockClock())["bowl"]
     dt = time.perf_counter() - t0
     print(

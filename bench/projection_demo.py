@@ -26,9 +26,10 @@ def run_demo(seed: int, objects: tuple[str, ...]) -> tuple[float, int]:
 
     async def main() -> dict[str, plans.ObjectOutcome]:
         async with projection.with_projected_robot(world):
-            return await plans.table_setting(world, objects, True, seed)
+            return await plans.table_setting(objects)
 
     start = time.perf_counter()
+    projection.set_up_scene(world, objects, seed=seed, settle_steps=0)
     outcomes = cpl.run(main, clock=MockClock())
     elapsed = time.perf_counter() - start
     world.close()

@@ -28,10 +28,11 @@ def projection_only(seed: int) -> tuple[float, int]:
 
     async def main() -> dict[str, plans.ObjectOutcome]:
         async with projection.with_projected_robot(world):
-            return await plans.table_setting(world, seed=seed)
+            return await plans.table_setting()
 
     try:
         t0 = time.perf_counter()
+        projection.set_up_scene(world, seed=seed, settle_steps=0)
         outcomes = cpl.run(main, clock=MockClock())
         return time.perf_counter() - t0, sum(o.success for o in outcomes.values())
     finally:

@@ -81,7 +81,8 @@ async def walkthrough(world: projection.World) -> None:
         world.remove_object("cup-1")
 
         section("6. (demo-random nil '(:bowl)): the bowl from the sink area to the island")
-        outcomes = await table_setting(world, ["bowl"], random=False)
+        projection.set_up_scene(world, ["bowl"], random=False, settle_steps=0)
+        outcomes = await table_setting(["bowl"])
         show("outcome", outcomes["bowl"])
         show("the bowl is now at", world.object_pose("bowl-1"))
 

@@ -21,6 +21,7 @@ __all__ = [
     "DRAWER_HANDLE",
     "DRAWER_JOINT",
     "DRAWER_LINK",
+    "DRAWER_OPENING",
     "FLOOR_HEIGHT",
     "ISLAND_SURFACE",
     "SINK_SURFACE",
@@ -35,12 +36,17 @@ DRAWER_LINK = "sink_area_left_upper_drawer_main"
 DRAWER_JOINT = f"{DRAWER_LINK}_joint"
 #: The drawer's handle (the gripper grasps it to open and close the drawer).
 DRAWER_HANDLE = "sink_area_left_upper_drawer_handle"
+#: How far (m) the demo's transports open a drawer (CRAM's accessing distance, 0.3 m): the
+#: plans open it by this much, and the scene places the spoon where it is reachable then.
+DRAWER_OPENING = 0.3
 
 #: The demo's object types, in the order the demo sets them (CRAM's: the bowl first, the
 #: cup, spoon and milk targets are placed relative to it). **The one list of demo
 #: objects**: a newcomer adds an object here, with its row in :data:`DEMO_POSES` (and
 #: :data:`DEMO_ATTACHMENTS` if it starts in a container); ``aiocram demo``, the campaign,
-#: the plans' fixed scene and :func:`projection.make_world_pair` derive from them.
+#: :func:`projection.set_up_scene` and :func:`projection.make_world_pair` derive from
+#: them (a random scene samples a new type in CRAM's spawning region unless
+#: :data:`projection._scene.SPAWN_REGIONS` narrows it).
 DEMO_OBJECTS: tuple[str, ...] = ("bowl", "cup", "spoon", "milk", "breakfast-cereal")
 #: CRAM's fixed spawning poses of the demo's objects (map), in the order its fixed scene
 #: spawns them (:func:`projection.make_world_pair` keeps it).

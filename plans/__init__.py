@@ -54,7 +54,7 @@ from .checks import (
     check_placing_collisions,
     check_placing_pose_stability,
 )
-from .demo import ObjectOutcome, spawn_scene, table_setting
+from .demo import ObjectOutcome, table_setting
 from .imagining import Imagined, imagine_best
 from .reasoning import (
     ProjectedParameters,
@@ -86,7 +86,6 @@ __all__ = [
     "pick_place",
     "retry_ledger",
     "search",
-    "spawn_scene",
     "table_setting",
     "transport",
     "with_projected_task_tree",

@@ -1,36 +1,32 @@
 """The table-setting demo (CRAM HEAD's ``demo-random``), run in the caller's environment.
 
-:func:`table_setting` spawns ``<type>-1`` objects on the sink counter (random: sampled
-from CRAM's location designators with the object's half height added through
-``(for <type>)``, random yaw; otherwise CRAM's fixed poses), transports each to the
-kitchen island with the designators of the reference's section 3.4, skips an object on a
-high-level failure, parks the arms and returns an outcome per object. It does no
-bookkeeping for whoever runs it: an observer learns what it does from the events it
-emits (:class:`TransportStarted`, :class:`TransportEnded`, :class:`TransportsOver`) and
-measures the rest itself (``aiocram demo`` measures distance, times and the truth).
+:func:`table_setting` finds ``<type>-1`` objects on the sink counter and in its drawer,
+where the caller set the scene up (``projection.set_up_scene``: the plan only acts, it
+never spawns; deliberate difference from CRAM, whose demo spawned its own objects),
+transports each to the kitchen island with the designators of the reference's section
+3.4, skips an object on a high-level failure, parks the arms and returns an outcome per
+object. It does no bookkeeping for whoever runs it: an observer learns what it does from
+the events it emits (:class:`TransportStarted`, :class:`TransportEnded`,
+:class:`TransportsOver`) and measures the rest itself (``aiocram demo`` measures distance,
+times and the truth).
 
-Quirks decided: the cereal is spawned and searched as ``breakfast-cereal`` (HEAD spawned
-``:cereal`` in random mode, so it was never found); HEAD's extra search for the cereal
-before the bowl is left out (it changed nothing but the time taken); the final
-``park-arms`` uses the ``park`` configuration (arms at the sides) rather than HEAD's
-``carry`` default. Setup uses the given ``world`` object's ``spawn_object``,
-``remove_object`` and ``attach`` only; everything else goes through the environment.
+Quirks decided: the cereal is searched as ``breakfast-cereal`` (HEAD spawned ``:cereal``
+in random mode, so it was never found); HEAD's extra search for the cereal before the bowl
+is left out (it changed nothing but the time taken); the final ``park-arms`` uses the
+``park`` configuration (arms at the sides) rather than HEAD's ``carry`` default. Everything
+goes through the environment.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 
-import numpy as np
-
 import cpl
 from executive import (
-    Designator,
     DesignatorError,
     HighLevelFailure,
     LocationDesignator,
@@ -39,25 +35,21 @@ from executive import (
     ObjectUndeliverable,
     ObjectUnfetchable,
     Pose,
-    SceneSetup,
     a,
     an,
     current_environment,
     kitchen,
     knowledge,
     perform,
-    yaw_quaternion,
 )
 from executive.events import Event, emit
 
 from ._common import CountedRetries, ignoring, retry_ledger, tally
-from ._designators import ROBOT
 from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
 
 __all__ = [
-    "FIXED_POSES",
     "OBJECTS",
     "ObjectOutcome",
     "TransportEnded",
@@ -77,8 +69,6 @@ DRAWER_LINK = kitchen.DRAWER_LINK
 
 #: The demo's objects, in CRAM's order (see :data:`executive.kitchen.DEMO_OBJECTS`).
 OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
-#: CRAM's fixed spawning poses (map; :data:`executive.kitchen.DEMO_POSES`).
-FIXED_POSES: Mapping[str, Pose] = kitchen.DEMO_POSES
 #: CRAM's fixed placing pose of the cereal, map (-0.78, 0.8, 0.95), quaternion
 #: (0, 0, 0.6, 0.4) (normalised: yaw ~112.6 deg), adapted to our frames (deliberate
 #: deviation): z = island top 0.85 + half the box height 0.29 = 0.995, because our object
@@ -204,136 +194,6 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
     x, y, z = CEREAL_TARGET.position
     fallbacks = [Pose((x, y + dy, z), CEREAL_TARGET.orientation) for dy in CEREAL_FALLBACK_OFFSETS]
     return a.location(*(("pose", p) for p in (CEREAL_TARGET, *fallbacks)))
-
-
-def _spawn_location(object_type: str) -> LocationDesignator:
-    """Where ``random`` spawning samples the object: CRAM's spawning region (the sink
-    counter's left-front quarter) intersected with the object's own fetch location
-    (deliberate: CRAM spawned the bowl anywhere in the quarter but searched it only
-    >= 0.5 m from the counter's origin, so it was often never found), with ``(for
-    <type>)``: the height of the object's half size above the surface and no contact with
-    the objects already spawned."""
-    for_ = an.object(type=object_type)
-    if object_type == "spoon":
-        return a.location(("side", "front"), in_=DRAWER, range=0.2, range_invert=0.12, for_=for_)
-    fetch = fetch_location(object_type)
-    sides = [("side", s) for s in ("left", "front") if s not in fetch.get_all("side")]
-    return a.location(*fetch.properties, *sides, for_=for_)
-
-
-#: Clearance (m) the spoon keeps from the cabinet front once the drawer is open by the
-#: transport's ``accessing`` distance (0.3 m, CRAM's): nearer, the palm of a top grasp
-#: touches the counter top above the drawer.
-SPOON_CLEARANCE = 0.1
-
-
-def _spawn_filter(world: SceneSetup, object_type: str) -> Callable[[Pose], bool]:
-    """Deliberate restriction of the spoon's spawning region (CRAM: ``(range 0.2)``
-    around the drawer box's centre, i.e. up to 0.29 m deep in this 0.58 m drawer): only
-    the part that comes out at least :data:`SPOON_CLEARANCE` beyond the cabinet front when
-    the drawer is opened 0.3 m along -x (the sink-side drawer opens towards -x; its
-    closed front is its box's -x face)."""
-    if object_type != "spoon":
-        return lambda _pose: True
-    from .environment import DEFAULT_DISTANCE
-
-    front = world.link_aabb(DRAWER_LINK)[0][0]
-    return lambda pose: pose.position[0] - DEFAULT_DISTANCE <= front - SPOON_CLEARANCE
-
-
-def _reachable_sample(
-    location: LocationDesignator, accept: Callable[[Pose], bool], tries: int = 30
-) -> Pose:
-    """The first sample of ``location`` that a robot location ``(reachable-for <robot>)``
-    resolves for (the robot's name from :data:`plans._designators.ROBOT`; deliberate:
-    CRAM's spawning region reaches 0.65 m deep into the counter, beyond the arm's reach
-    from any collision-free base pose, so such objects were unfetchable); after
-    ``tries`` samples, the last one."""
-    current: Designator = location
-    sample: Pose = location.reference()
-    for _ in range(tries):
-        sample = current.reference()
-        if not accept(sample):
-            nxt = current.next_solution()
-            if nxt is None:
-                break
-            current = nxt
-            continue
-        reach = a.location(reachable_for=ROBOT, location=a.location(pose=sample))
-        try:
-            reach.reference()
-            return sample
-        except DesignatorError:
-            pass
-        nxt = current.next_solution()
-        if nxt is None:
-            break
-        current = nxt
-    return sample
-
-
-def spawn_scene(
-    world: SceneSetup,
-    objects: Sequence[str] = OBJECTS,
-    random: bool = True,
-    seed: int | None = None,
-) -> dict[str, Pose]:
-    """Spawn ``<type>-1`` for each object type on ``world`` (CRAM's demo setup): with
-    ``random``, sampled from the object's spawning region (see :func:`_spawn_location`),
-    collision-free with the objects spawned before it; otherwise CRAM's fixed poses. The
-    spoon goes into the drawer. Location designators resolve in the *current*
-    environment, so call it in one whose location rules are bound to ``world`` (e.g.
-    ``with_projected_robot(world)``); a robot whose belief does not know the objects yet
-    (the simulated real robot) must set up its true world that way first. Returns the
-    spawn pose of each object, by name. An unknown type -> ``LookupError`` naming the
-    demo's types, before anything is spawned."""
-    _spawn(world, objects, random, np.random.default_rng(seed))
-    return {f"{t}-1": world.object_pose(f"{t}-1") for t in objects}
-
-
-def _spawn(
-    world: SceneSetup, objects: Sequence[str], random: bool, rng: np.random.Generator
-) -> None:
-    unknown = [t for t in objects if t not in FIXED_POSES]
-    if unknown:
-        raise LookupError(
-            f"unknown object type{'s' if len(unknown) > 1 else ''} "
-            f"{', '.join(map(repr, unknown))}; the demo's types: {', '.join(FIXED_POSES)}"
-        )
-    for object_type in objects:
-        name = f"{object_type}-1"
-        if name in world.objects:
-            world.remove_object(name)
-        if random:
-            location = _spawn_location(object_type)
-            sample = _reachable_sample(location, _spawn_filter(world, object_type))
-            _spawn_at_free_yaw(world, name, object_type, sample, rng)
-        else:
-            world.spawn_object(name, object_type, FIXED_POSES[object_type])
-        link = kitchen.DEMO_ATTACHMENTS.get(object_type)
-        if link is not None:
-            world.attach(name, link)
-
-
-#: How many random yaws a spawn tries at its sampled position before giving up.
-SPAWN_YAW_TRIES = 24
-
-
-def _spawn_at_free_yaw(
-    world: SceneSetup, name: str, object_type: str, sample: Pose, rng: np.random.Generator
-) -> None:
-    """Spawn at ``sample``'s position with a random yaw; the sample is collision-free for
-    the object's footprint as sampled, but a turned box may reach into a neighbour, which
-    the world refuses (``ValueError``): then another yaw, up to :data:`SPAWN_YAW_TRIES`
-    (deterministic under the seeded ``rng``); the last refusal propagates."""
-    for attempt in range(SPAWN_YAW_TRIES):
-        yaw = float(rng.uniform(-math.pi, math.pi))
-        try:
-            world.spawn_object(name, object_type, Pose(sample.position, yaw_quaternion(yaw)))
-            return
-        except ValueError:
-            if attempt == SPAWN_YAW_TRIES - 1:
-                raise
 
 
 async def _initialize_or_finalize(configuration: str) -> None:
@@ -465,22 +325,19 @@ async def _transport_later(
 
 
 async def table_setting(
-    world: SceneSetup,
     objects: Sequence[str] = OBJECTS,
-    random: bool = True,
-    seed: int | None = None,
     *,
     projection_reasoning: bool = True,
     projection_runs: int = 3,
-    spawn: bool = True,
     order_by_projection: bool = False,
     viewpoint_reasoning: bool = True,
 ) -> dict[str, ObjectOutcome]:
-    """Set the table (CRAM's ``demo-random``) in the current environment on ``world``.
+    """Set the table (CRAM's ``demo-random``) in the current environment.
 
-    With ``spawn`` (the default) the objects are first spawned as :func:`spawn_scene`
-    does; pass ``spawn=False`` when the scene was set up already (the simulated real
-    robot's true world is set up before the robot, whose belief starts empty, is started).
+    The objects are where the caller's scene set-up put them
+    (``projection.set_up_scene(world, objects, seed=...)`` before the run): the plan only
+    acts. ``objects`` not a sequence of type names (a string, or a world as in the
+    signature before issue 24): TypeError, before the robot moves.
 
     Each transport imagines fetch-and-deliver ``projection_runs`` times before acting when
     ``projection_reasoning`` is on and the environment can imagine (the simulated real
@@ -505,8 +362,14 @@ async def table_setting(
     ``viewpoint_reasoning`` (with ``projection_reasoning``): each search chooses where to
     look from by projection (:mod:`plans.viewpoints`; on by default with
     ``projection_reasoning``, see the issue-14 note for its measurement)."""
-    if spawn:
-        _spawn(world, objects, random, np.random.default_rng(seed))
+    if isinstance(objects, str) or not (
+        isinstance(objects, Sequence) and all(isinstance(t, str) for t in objects)
+    ):
+        raise TypeError(
+            "table_setting(objects, ...) takes a sequence of object types, e.g. "
+            f"('bowl',), got {objects!r}; it takes no world: the caller sets the scene up "
+            "before the run (projection.set_up_scene(world, objects, seed=...))"
+        )
     outcomes: dict[str, ObjectOutcome] = {}
 
     async def transport_one(outcome: ObjectOutcome, later: CountedRetries | None) -> None:

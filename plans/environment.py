@@ -33,6 +33,7 @@ from executive import (
     an,
     current_environment,
     emit,
+    kitchen,
     knowledge,
     perform,
     register_resources,
@@ -44,8 +45,9 @@ from ._common import hand_of, perform_ignoring
 
 __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
 
-#: How far accessing/sealing move a drawer (CRAM's demo: 0.3 m).
-DEFAULT_DISTANCE = 0.3
+#: How far accessing/sealing move a drawer (CRAM's demo: 0.3 m; the scene places the
+#: spoon by the same number).
+DEFAULT_DISTANCE = kitchen.DRAWER_OPENING
 _PREGRASP = 0.10
 _HANDLE_GRIPPER = np.array(knowledge.STANDARD_ROTATIONS["back"]) @ np.array(
     knowledge.STANDARD_TO_PR2_ROTATION

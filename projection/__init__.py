@@ -37,6 +37,8 @@ _EXPORTS = MappingProxyType(
         "FaultProfile": "projection._real_faults",
         "RealWorldModel": "projection._real_world_model",
         "make_world_pair": "projection._scene",
+        "set_up_scene": "projection._scene",
+        "SceneSetUpError": "projection._scene",
         "real_robot_clock": "projection._real_clock",
         "settle": "projection._real_body",
         "with_real_robot": "projection._real_environment",
@@ -56,6 +58,7 @@ __all__ = [
     "ProjectionImagination",
     "RealWorldModel",
     "RobotBody",
+    "SceneSetUpError",
     "SpawnOverlap",
     "World",
     "kinematic_tree",
@@ -63,6 +66,7 @@ __all__ = [
     "make_world_pair",
     "real_robot_clock",
     "render",
+    "set_up_scene",
     "settle",
     "with_projected_robot",
     "with_real_robot",
@@ -78,7 +82,7 @@ if TYPE_CHECKING:
     from projection._real_faults import FaultProfile
     from projection._real_world_model import RealWorldModel
     from projection._robot_body import RobotBody, kinematic_tree, load_robot
-    from projection._scene import make_world_pair
+    from projection._scene import SceneSetUpError, make_world_pair, set_up_scene
     from projection._world import World
     from projection._world_base import BadObjectPose, SpawnOverlap
     from projection._world_model import ProjectedWorldModel

@@ -27,7 +27,9 @@ One module per concept:
 :data:`executive.kitchen.DEMO_OBJECTS` (in the order it is set), with CRAM's fixed
 spawning pose in :data:`executive.kitchen.DEMO_POSES` (and, if it starts in a container,
 the link in :data:`executive.kitchen.DEMO_ATTACHMENTS`); the demo's and the campaign's
-``--objects``, their checks and the scenes derive from that list. The object's type
+``--objects``, their checks and the scene (:func:`projection.set_up_scene`, which
+samples a random scene's new type in CRAM's spawning region on the sink counter unless
+``projection._scene.SPAWN_REGIONS`` narrows it) derive from that list. The object's type
 (size, grasps) must be known to :mod:`projection` (``projection._objects``), and where the
 plan fetches and places it is :func:`plans.demo.fetch_location` /
 :func:`plans.demo.place_location` (the default applies to a type they do not name).

@@ -3,8 +3,8 @@ simulated real robot and measures it from outside.
 
 The robot's *belief* world is where plans and projection reason; a second PyBullet world
 is the *true* world the real process modules act on (timed motions, physics, noisy
-perception, injected faults). The scene is set up in the true world first
-(:func:`_set_up_scene`); the robot's belief starts empty.
+perception, injected faults). The scene is set up in the true world first, with one call
+(:func:`projection.set_up_scene`); the robot's belief starts empty.
 
 The plan (:data:`DemoPlan`; :func:`table_setting` by default) only sets the table and
 returns its outcomes. What the app reports is gathered beside it: outcomes as they come
@@ -54,13 +54,7 @@ async def table_setting(world: World, config: DemoConfig) -> Mapping[str, Object
     from plans.demo import table_setting as plan
 
     return await plan(
-        world,
-        config.objects,
-        random=True,
-        seed=config.seed,
-        projection_reasoning=config.projection,
-        projection_runs=config.runs,
-        spawn=False,
+        config.objects, projection_reasoning=config.projection, projection_runs=config.runs
     )
 
 
@@ -197,7 +191,7 @@ def run_demo(
     from aiocram._floorplan import RouteRecorder
     from aiocram._outputs import OutputError, Outputs
     from aiocram._views import DemoView, Progress
-    from projection import make_world_pair, real_robot_clock, with_real_robot
+    from projection import make_world_pair, real_robot_clock, set_up_scene, with_real_robot
 
     del plans  # imported for its action rules
     faults = fault_profile(config)
@@ -262,7 +256,7 @@ def run_demo(
         route = RouteRecorder(true_world)  # the floor plan's true route (issue 14)
         if outputs is not None:  # they record for the pictures only
             instruments += [camera, costmaps, route]
-        _set_up_scene(true_world, config)
+        set_up_scene(true_world, config.objects, seed=config.seed)
         root_box: list[cpl.Task] = []
 
         class _Root(cpl.Instrument):
@@ -368,22 +362,6 @@ def frozen_imports() -> Iterator[None]:
         yield
     finally:
         gc.unfreeze()
-
-
-def _set_up_scene(true_world: Any, config: DemoConfig) -> dict[str, Any]:
-    """Spawn the demo objects in the true world, sampling their poses with location rules
-    bound to the true world (so spawns are collision-free with each other), and let them
-    come to rest. The robot's belief knows none of this: it learns by perceiving."""
-    from plans.demo import spawn_scene
-    from projection import settle, with_projected_robot
-
-    async def set_up() -> dict[str, Any]:
-        async with with_projected_robot(true_world):
-            return spawn_scene(true_world, config.objects, random=True, seed=config.seed)
-
-    spawned: dict[str, Any] = cpl.run(set_up, name="scene-setup")
-    settle(true_world, 240)
-    return {name: true_world.object_pose(name) for name in spawned}
 
 
 def run_demo_once(

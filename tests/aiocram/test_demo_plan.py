@@ -23,9 +23,7 @@ def test_run_demo_runs_the_plan_it_is_given() -> None:
 
     async def bowl_without_imagining(world, config):
         calls.append((world, config, sorted(world.objects)))
-        return await table_setting(
-            world, config.objects, seed=config.seed, projection_reasoning=False, spawn=False
-        )
+        return await table_setting(config.objects, projection_reasoning=False)
 
     config = DemoConfig(objects=("bowl",), seed=1, live=False)
     report = run_demo(config, plan=bowl_without_imagining)

@@ -104,8 +104,9 @@ def test_one_bowl_transport(mrun):
         env = current_environment()
         for kind in (TransportStarted, TransportEnded, TransportsOver):
             env.subscribe(kind, lambda e: seen.append((type(e).__name__, e)))
-        return await plans.table_setting(world, ("bowl",), True, 1)
+        return await plans.table_setting(("bowl",))
 
+    projection.set_up_scene(world, ("bowl",), seed=1, settle_steps=0)
     outcome = run_projected(mrun, world, observed)
     assert outcome["bowl"].success
     assert on_island(world, "bowl-1") and world.attachments == {}
@@ -136,8 +137,9 @@ def settled_moves(world, names, steps: int = 300) -> dict[str, float]:
 )
 def test_table_setting(mrun, seed):
     world = projection.World(seed=seed)
+    projection.set_up_scene(world, plans.demo.OBJECTS, seed=seed, settle_steps=0)
     outcomes = run_projected(
-        mrun, world, plans.table_setting, world, plans.demo.OBJECTS, True, seed
+        mrun, world, plans.table_setting, plans.demo.OBJECTS
     )  # mrun: no task alive, every transition legal
     assert list(outcomes) == list(plans.demo.OBJECTS)
     failed = {t: o.failure for t, o in outcomes.items() if not o.success}
@@ -154,30 +156,6 @@ def test_table_setting(mrun, seed):
         )
     moves = settled_moves(world, [o.name for o in outcomes.values()])
     assert max(moves.values()) < 0.02, moves
-
-
-@pytest.mark.parametrize("seed", range(1, 7))
-def test_random_scenes_spawn_for_every_seed_without_overlap(seed: int) -> None:
-    """A sampled spawn position whose randomly turned box would reach into a neighbour
-    gets another yaw instead of failing the demo's set-up (the world refuses overlaps)."""
-    import cpl
-    import projection
-    from plans.demo import OBJECTS, spawn_scene
-
-    world = projection.World(seed=seed)
-    try:
-
-        async def main() -> dict[str, Pose]:
-            async with projection.with_projected_robot(world):
-                return spawn_scene(world, OBJECTS, random=True, seed=seed)
-
-        poses = cpl.run(main)
-        assert sorted(poses) == sorted(f"{t}-1" for t in OBJECTS)
-        for name in poses:  # no object reaches into another (the world's own contact test)
-            deep = [c for c in world.contacts(name, tolerance=0.005) if c.body_b in poses]
-            assert deep == [], (name, deep)
-    finally:
-        world.close()
 
 
 def test_a_grasp_monitor_stops_a_projected_transport_at_the_next_motion(mrun):
@@ -198,8 +176,9 @@ def test_a_grasp_monitor_stops_a_projected_transport_at_the_next_motion(mrun):
                 await cpl.wait_for(grasped)
                 fired.append(cpl.current_time())
 
-            await cpl.pursue(monitor(), plans.table_setting(world, ("spoon",), True, 1))
+            await cpl.pursue(monitor(), plans.table_setting(("spoon",)))
 
+    projection.set_up_scene(world, ("spoon",), seed=1, settle_steps=0)
     mrun(main, name="grasp-monitor")
     assert len(fired) == 1
     at = fired[0]
@@ -237,8 +216,9 @@ def test_a_transport_evaporated_while_opening_the_drawer_closes_it(mrun):
             current_environment().subscribe(
                 ContainerOpened, lambda _e: setattr(opened, "value", True)
             )
-            await cpl.pursue(cpl.wait_for(opened), plans.table_setting(world, ("spoon",), True, 1))
+            await cpl.pursue(cpl.wait_for(opened), plans.table_setting(("spoon",)))
 
+    projection.set_up_scene(world, ("spoon",), seed=1, settle_steps=0)
     mrun(main, name="drawer-monitor")
     tree: Any = cpl.task_tree("drawer-monitor")
     assert not any(n.name.startswith(("fetch", "deliver")) for n in cpl.walk(tree))

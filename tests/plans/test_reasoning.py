@@ -442,9 +442,8 @@ def test_one_bowl_with_projection_reasoning(mrun):
     world = projection.World(seed=1)
     imagination = RecordingImagination(world)
     try:
-        root, outcome = projected_real_run(
-            mrun, world, imagination, plans.table_setting, world, ("bowl",), True, 1
-        )
+        projection.set_up_scene(world, ("bowl",), seed=1, settle_steps=0)
+        root, outcome = projected_real_run(mrun, world, imagination, plans.table_setting, ("bowl",))
         assert outcome["bowl"].success
         (transport, _), *_ = performed(root, "transporting")
         names = [t.name for t in transport.children]
@@ -478,8 +477,9 @@ def test_reasoning_inside_projection_is_a_pass_through(mrun):
         async def main():
             async with projection.with_projected_robot(world) as env:
                 assert env.projecting
-                return cpl.current_task(), await plans.table_setting(world, ("bowl",), True, 1)
+                return cpl.current_task(), await plans.table_setting(("bowl",))
 
+        projection.set_up_scene(world, ("bowl",), seed=1, settle_steps=0)
         root, outcome = mrun(main)
         assert outcome["bowl"].success
         assert not {t.name for t in cpl_walk(root)} & {*RUN_NAMES, "real-run"}

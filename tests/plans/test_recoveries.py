@@ -107,8 +107,9 @@ def test_an_object_not_found_is_transported_again_after_the_others(mrun, monkeyp
 
     async def main():
         async with projection.with_projected_robot(world):
-            return await plans.demo.table_setting(world, ("cup", "bowl"), True, 1)
+            return await plans.demo.table_setting(("cup", "bowl"))
 
+    projection.set_up_scene(world, ("cup", "bowl"), seed=1, settle_steps=0)
     outcomes = mrun(main)
     assert transported == ["cup", "bowl", "cup"]
     assert outcomes["bowl"].success
@@ -136,8 +137,9 @@ def test_an_object_failing_again_later_is_tried_only_once_more(mrun, monkeypatch
 
     async def main():
         async with projection.with_projected_robot(world):
-            return await plans.demo.table_setting(world, ("bowl",), True, 1)
+            return await plans.demo.table_setting(("bowl",))
 
+    projection.set_up_scene(world, ("bowl",), seed=1, settle_steps=0)
     outcomes = mrun(main)
     assert transported == ["bowl", "bowl"]
     assert isinstance(outcomes["bowl"].failure, ObjectNowhereToBeFound)

@@ -29,6 +29,7 @@ from projection import (
     World,
     make_world_pair,
     real_robot_clock,
+    set_up_scene,
     with_real_robot,
 )
 from projection._real_body import (
@@ -503,8 +504,9 @@ def test_a_bowl_transport_plan_succeeds_on_the_real_robot(mrun: Any) -> None:
 
         async def main() -> Any:
             async with with_real_robot(true, belief, FaultProfile(seed=1)):
-                return await plans.table_setting(true, ("bowl",), False, 1)
+                return await plans.table_setting(("bowl",))
 
+        set_up_scene(true, ("bowl",), random=False, settle_steps=0)
         outcome = mrun(main)["bowl"]
         assert outcome.success, outcome.failure
         assert true.attachments == {} and belief.attachments == {}
