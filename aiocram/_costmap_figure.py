@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from projection.render import draw_objects
+
 __all__ = ["costmap_figure", "draw_costmap", "draw_furniture", "kitchen_boxes"]
 
 
@@ -317,28 +319,7 @@ def draw_costmap(
     else:
         note = "no costmap: the plan gave the poses to try"
     draw_furniture(ax, boxes, lw=1.2)
-    for name, (lo, hi) in use.objects.items():
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor="tab:blue",
-                edgecolor="navy",
-                lw=1.0,
-                zorder=3,
-            )
-        )
-        ax.annotate(
-            name,
-            ((lo[0] + hi[0]) / 2, hi[1]),
-            xytext=(0, 3),
-            textcoords="offset points",
-            ha="center",
-            fontsize=8,
-            color="navy",
-            zorder=6,
-        )
+    draw_objects(ax, use.objects)
     rx, ry, ryaw = use.robot
     half = 0.33  # the PR2 base footprint is about 0.66 m square
     c, s = math.cos(ryaw), math.sin(ryaw)

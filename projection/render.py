@@ -17,7 +17,14 @@ from PIL import Image
 if TYPE_CHECKING:
     from projection._world import World
 
-__all__ = ["OVERVIEW_CAMERA", "camera_image", "camera_showing", "scene", "visible_pixels"]
+__all__ = [
+    "OVERVIEW_CAMERA",
+    "camera_image",
+    "camera_showing",
+    "draw_objects",
+    "scene",
+    "visible_pixels",
+]
 
 #: The default camera ``(eye, target)`` in ``map``: the kitchen from above-behind the robot's
 #: start pose, looking at the counter.
@@ -116,24 +123,9 @@ def visible_pixels(
     """How many pixels of each object in ``names`` the ``camera`` (as :func:`scene`) sees:
     PyBullet's segmentation mask, so an object hidden behind another counts 0. Unknown
     names raise LookupError, bad sizes TypeError/ValueError. The world is not changed."""
-    import pybullet as pb
-
     _check_size(width, height)
     bodies = {world.body_of(name): name for name in names}
-    client = world.client
-    eye, target, up, default_fov = _view(world, camera)
-    fov_y = default_fov if fov is None else float(fov)
-    view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
-    proj = pb.computeProjectionMatrixFOV(fov_y, width / height, _NEAR, _FAR, physicsClientId=client)
-    _, _, _, _, seg = pb.getCameraImage(
-        width,
-        height,
-        view,
-        proj,
-        renderer=pb.ER_TINY_RENDERER,
-        shadow=0,
-        physicsClientId=client,
-    )
+    seg = _render(world, camera, width, height, fov, segmentation=True)[1]
     ids, counts = np.unique(np.asarray(seg, dtype=np.int64).reshape(-1), return_counts=True)
     seen = dict(zip(ids.tolist(), counts.tolist(), strict=True))
     return {name: int(seen.get(body, 0)) for body, name in bodies.items()}
@@ -297,27 +289,7 @@ def costmap(
                     zorder=2,
                 )
             )
-        for name in w.objects:
-            lo, hi = w.object_aabb(name)
-            ax.add_patch(
-                Rectangle(
-                    (lo[0], lo[1]),
-                    hi[0] - lo[0],
-                    hi[1] - lo[1],
-                    facecolor="tab:blue",
-                    edgecolor="navy",
-                    zorder=3,
-                )
-            )
-            ax.annotate(
-                name,
-                ((lo[0] + hi[0]) / 2, hi[1]),
-                xytext=(0, 3),
-                textcoords="offset points",
-                ha="center",
-                fontsize=8,
-                color="navy",
-            )
+        draw_objects(ax, {name: w.object_aabb(name) for name in w.objects})
 
         def dots(poses: list[Any], colour: str, size: float) -> None:
             xs = [float(p.position[0]) for p in poses]
@@ -377,6 +349,18 @@ def camera_image(
     """Render ``world`` from ``camera`` (as :func:`scene`; sizes and fov unchecked): the RGB
     pixels (height x width x 3, a copy) and PyBullet's view and projection matrices, for
     callers that draw onto the picture. The world is not changed."""
+    rgba, _seg, view, proj = _render(world, camera, width, height, fov, segmentation=False)
+    pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+    return pixels, tuple(view), tuple(proj)
+
+
+def _render(
+    world: World, camera: Camera, width: int, height: int, fov: float | None, *, segmentation: bool
+) -> tuple[Any, Any, Any, Any]:
+    """PyBullet's camera image of ``world`` from ``camera`` (the tiny renderer, no shadow):
+    ``(rgba, segmentation mask, view matrix, projection matrix)``; the mask only when
+    ``segmentation`` (else PyBullet skips it), the lighting only when not (the mask does not
+    need it)."""
     import pybullet as pb
 
     client = world.client
@@ -384,16 +368,48 @@ def camera_image(
     fov_y = default_fov if fov is None else float(fov)
     view = pb.computeViewMatrix(eye, target, up, physicsClientId=client)
     proj = pb.computeProjectionMatrixFOV(fov_y, width / height, _NEAR, _FAR, physicsClientId=client)
-    _, _, rgba, _, _ = pb.getCameraImage(
+    extra: dict[str, Any] = (
+        {}
+        if segmentation
+        else {"lightDirection": (-1.0, -0.5, 2.0), "flags": pb.ER_NO_SEGMENTATION_MASK}
+    )
+    _, _, rgba, _, seg = pb.getCameraImage(
         width,
         height,
         view,
         proj,
         renderer=pb.ER_TINY_RENDERER,
         shadow=0,
-        lightDirection=(-1.0, -0.5, 2.0),
-        flags=pb.ER_NO_SEGMENTATION_MASK,
         physicsClientId=client,
+        **extra,
     )
-    pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
-    return pixels, tuple(view), tuple(proj)
+    return rgba, seg, view, proj
+
+
+def draw_objects(ax: Any, boxes: Any) -> None:
+    """Draw objects on a top-down matplotlib axis: each ``name -> (lo, hi)`` AABB as a blue
+    footprint labelled with its name above it (the costmap pictures' convention)."""
+    from matplotlib.patches import Rectangle
+
+    for name, (lo, hi) in boxes.items():
+        ax.add_patch(
+            Rectangle(
+                (lo[0], lo[1]),
+                hi[0] - lo[0],
+                hi[1] - lo[1],
+                facecolor="tab:blue",
+                edgecolor="navy",
+                lw=1.0,
+                zorder=3,
+            )
+        )
+        ax.annotate(
+            name,
+            ((lo[0] + hi[0]) / 2, hi[1]),
+            xytext=(0, 3),
+            textcoords="offset points",
+            ha="center",
+            fontsize=8,
+            color="navy",
+            zorder=6,
+        )
