@@ -24,6 +24,7 @@ from executive import (
     ContainerStates,
     Designator,
     DesignatorError,
+    DesignatorInputError,
     EnvironmentManipulationImpossible,
     EnvironmentUnreachable,
     GripperLowLevelFailure,
@@ -133,6 +134,7 @@ def _environment_rule(action_type: str) -> Any:
         container = location.get("in")
         if not isinstance(container, ObjectDesignator):
             raise DesignatorError(f"{d.short()}: its location must be (in <container>)", d)
+        _check_container(d, container)
         arm = _given_arm(d, "left")
         distance = float(d.get("distance", DEFAULT_DISTANCE))
         yield (
@@ -142,6 +144,29 @@ def _environment_rule(action_type: str) -> Any:
 
     ground.__name__ = ground.__qualname__ = action_type
     return ground
+
+
+def _check_container(d: Designator, container: ObjectDesignator) -> None:
+    """A container whose ``urdf-name`` the world model does not know as a container (a
+    misspelt drawer) is a :class:`executive.DesignatorInputError` naming the known ones,
+    before anything moves, not "environment manipulation impossible" after ten
+    relocations. A world model that cannot tell (no :class:`executive.ContainerStates`)
+    leaves it to the handle lookup, as before."""
+    name = container.get("urdf-name")
+    env = current_environment()
+    if not isinstance(name, str) or not env.has_world:
+        return
+    world = env.world
+    if not isinstance(world, ContainerStates):
+        return
+    try:
+        world.container_state(name)
+    except LookupError as exc:
+        raise DesignatorInputError(
+            f"{d.short()}: its location is (in ...) {name!r}, which is not a container of "
+            f"this world ({exc})",
+            d,
+        ) from None
 
 
 def _environment_doc(verb: str) -> RuleDoc:

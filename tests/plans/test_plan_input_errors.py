@@ -195,3 +195,16 @@ def test_an_unknown_arm_is_reported_at_the_action_given_it(mrun, world, action_t
     ):
         _run(mrun, world, an.action(type=action_type, **keys))
     assert _state(world) == before
+
+
+def test_a_misspelt_container_fails_before_the_robot_moves(mrun, world):
+    # a drawer the world does not know is the programmer's error, named at once; not
+    # "environment manipulation impossible" after the robot drove to ten base poses
+    from executive import DesignatorInputError
+
+    drawr = an.object(type="drawer", urdf_name="sink_area_left_upper_drawr_main")
+    before = _state(world)
+    for verb in ("accessing", "sealing"):
+        with pytest.raises(DesignatorInputError, match="'sink_area_left_upper_drawr_main'"):
+            _run(mrun, world, an.action(type=verb, location=a.location(in_=drawr)))
+    assert _state(world) == before
