@@ -130,3 +130,30 @@ def test_a_sealing_that_hangs_is_cut_short(cup_world):
     assert took == pytest.approx(SEAL_TIMEOUT, abs=1.0)
     assert robot.pms["arms"].cancelled
     assert not _closings(world)
+
+
+def test_a_cleanup_step_that_fails_is_logged_and_counted(caplog):
+    # the demo's final cleanup goes on past a failed step, and never silently: the failure
+    # is logged and counted (cleanup-step-failed) in the running retry ledger
+    import cpl
+    from executive import NavigationGoalNotReached
+    from plans import retry_ledger
+    from plans.demo import _ignoring_logged
+
+    steps: list[str] = []
+
+    async def failing() -> None:
+        steps.append("failing")
+        raise NavigationGoalNotReached("the base did not get there")
+
+    async def main() -> Any:
+        with retry_ledger() as ledger:
+            await _ignoring_logged("go to the origin", failing)
+            steps.append("went on")
+        return dict(ledger)
+
+    with caplog.at_level("WARNING", logger="plans.demo"):
+        counted = cpl.run(main)
+    assert steps == ["failing", "went on"]
+    assert counted == {"cleanup-step-failed": 1}
+    assert "could not go to the origin" in caplog.text
