@@ -38,11 +38,12 @@ import argparse
 import asyncio
 import gc
 import os
-import resource
 import sys
 import tempfile
 import time
 from typing import Any
+
+from _timing import FullCollections, rss_mb
 
 import cpl
 from executive import Pose, RuleSet, a, an, environment, perform
@@ -63,34 +64,6 @@ async def moving_plan() -> None:
 
 def moving_rule(d: Any) -> Any:
     yield moving_plan, {}
-
-
-class FullCollections:
-    """Counts gen-2 collections and keeps the longest one's duration (``gc.callbacks``)."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.longest = 0.0
-        self.longest_cpu = 0.0  # the CPU time of the longest one (this thread's)
-        self._start = 0.0
-        self._start_cpu = 0.0
-
-    def __call__(self, phase: str, info: dict[str, int]) -> None:
-        if info["generation"] != 2:
-            return
-        if phase == "start":
-            self._start = time.perf_counter()
-            self._start_cpu = time.thread_time()
-        else:
-            self.count += 1
-            pause = time.perf_counter() - self._start
-            if pause > self.longest:
-                self.longest = pause
-                self.longest_cpu = time.thread_time() - self._start_cpu
-
-
-def _rss_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 async def _noop() -> None:
@@ -138,7 +111,7 @@ def soak(
             for _ in range(WARMUP):
                 await perform(an.action(type="soak-moving"))
             gc.collect()
-            rss0 = _rss_mb()
+            rss0 = rss_mb()
             gc.callbacks.append(collections)
             try:
                 done = 0
@@ -154,7 +127,7 @@ def soak(
                             "performs": mark,
                             "mean_us": elapsed / (mark - done) * 1e6,
                             "cpu_us": cpu / (mark - done) * 1e6,
-                            "rss_mb": _rss_mb() - rss0,
+                            "rss_mb": rss_mb() - rss0,
                             "full": collections.count,
                             "pause_ms": collections.longest * 1e3,
                             "pause_cpu_ms": collections.longest_cpu * 1e3,

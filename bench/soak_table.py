@@ -22,43 +22,16 @@ from __future__ import annotations
 import argparse
 import gc
 import logging
-import resource
 import statistics
 import sys
 import time
+
+from _timing import FullCollections, rss_mb
 
 import cpl
 import plans
 import projection
 from cpl.testing import MockClock
-
-
-class FullCollections:
-    """Counts gen-2 collections and keeps the longest one (wall and CPU)."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.longest = 0.0
-        self.longest_cpu = 0.0
-        self._start = 0.0
-        self._start_cpu = 0.0
-
-    def __call__(self, phase: str, info: dict[str, int]) -> None:
-        if info["generation"] != 2:
-            return
-        if phase == "start":
-            self._start = time.perf_counter()
-            self._start_cpu = time.thread_time()
-        else:
-            self.count += 1
-            pause = time.perf_counter() - self._start
-            if pause > self.longest:
-                self.longest = pause
-                self.longest_cpu = time.thread_time() - self._start_cpu
-
-
-def _rss_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def soak(hours: float, retention: str) -> None:
@@ -97,12 +70,12 @@ def soak(hours: float, retention: str) -> None:
                 rounds.append(time.perf_counter() - t0)
                 if n == 1:
                     gc.collect()
-                    rss0 = _rss_mb()
+                    rss0 = rss_mb()
                     gc.callbacks.append(collections)
                 print(
                     f"| {n} | {(loop_time() - start) / 60:.1f} min | {rounds[-1]:.2f} "
                     f"| {sum(o.success for o in outcomes.values())} of 5 "
-                    f"| {_rss_mb() - rss0:+.1f} MB | {collections.count} "
+                    f"| {rss_mb() - rss0:+.1f} MB | {collections.count} "
                     f"| {collections.longest * 1e3:.1f} ms "
                     f"({collections.longest_cpu * 1e3:.1f} ms CPU) "
                     f"| {sum(1 for _ in cpl.walk(root)):,} |",
