@@ -66,7 +66,8 @@ def soak(hours: float, retention: str) -> None:
                 n += 1
                 world.restore(empty)
                 t0 = time.perf_counter()
-                outcomes = await plans.table_setting(world, plans.demo.OBJECTS, True, n)
+                projection.set_up_scene(world, plans.demo.OBJECTS, seed=n, settle_steps=0)
+                outcomes = await plans.table_setting(plans.demo.OBJECTS, projection_reasoning=True)
                 rounds.append(time.perf_counter() - t0)
                 if n == 1:
                     gc.collect()
