@@ -29,7 +29,7 @@ import cpl
 from aiocram.foresight import foresight_records
 from aiocram.truth import TruthObserver
 
-from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, fault_profile
+from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, fault_profile, learned_priors
 from ._outputs import OUTPUT_FILES, STALE, route_plan_logs, write_pictures
 from ._report import DemoReport
 
@@ -195,6 +195,7 @@ def run_demo(
 
     del plans  # imported for its action rules
     faults = fault_profile(config)
+    preferences = learned_priors(config)  # checked by config.check(): None or usable
     watch = _Watch()
     progress = Progress(config.objects)
     instruments: list[cpl.Instrument] = [watch, progress]
@@ -231,7 +232,12 @@ def run_demo(
             rules = costmaps.recording(rules)
         assert observer is not None and transports is not None
         async with with_real_robot(
-            true_world, belief_world, faults=faults, speed=config.speed, rules=rules
+            true_world,
+            belief_world,
+            faults=faults,
+            speed=config.speed,
+            rules=rules,
+            preferences=preferences,
         ) as env:
             observer.subscribe(env)
             transports.subscribe(env)
