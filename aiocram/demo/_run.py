@@ -378,11 +378,13 @@ def run_demo_once(
     objects: Sequence[str] = DEFAULT_OBJECTS,
     runs: int = 3,
     experience: bool = False,
+    learned: str | None = None,
 ) -> dict[str, Any]:
     """One headless campaign run at a uniform fault rate (seeded by ``seed``); the JSON
     record of :class:`DemoReport`. ``experience=True``: the record also carries the run's
     experience-store rows under ``"experience"`` (:func:`aiocram.experience.run_rows`,
-    read from the run's task tree after the run), for the campaign to write."""
+    read from the run's task tree after the run), for the campaign to write. ``learned``:
+    a learned-priors file the run orders its choices by (``--learned``)."""
     from projection import FaultProfile
 
     config = DemoConfig(
@@ -392,6 +394,7 @@ def run_demo_once(
         projection=projection,
         faults=FaultProfile.uniform(fault_rate, seed=seed),
         live=False,
+        learned=learned,
     )
     report = run_demo(config)
     record = report.to_json()
