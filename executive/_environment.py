@@ -72,6 +72,13 @@ class Preferences(Protocol):
         """``choices`` ((arm, grasp) pairs for ``action`` on an ``obj`` type), best first."""
         ...
 
+    def base_density(self, action: str, obj: str) -> Callable[[Any, Any, Any], Any] | None:
+        """Where the base stood when ``action`` on an ``obj`` type succeeded: a function
+        of the base pose in the object's frame (x, y, yaw; numpy arrays of one shape) to
+        a weight in [0, 1] (1: where experience says to stand), or None when nothing was
+        learned. Location resolution multiplies it into a base costmap, never emptying it."""
+        ...
+
 
 class _Subscribers:
     """Event callbacks by event type, shared by an environment and those derived from it."""

@@ -24,11 +24,12 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from sqlalchemy import func, select
 
 from ._errors import StoreError
@@ -169,6 +170,25 @@ class LearnedPriors:
         if prior is None:
             return list(choices)
         return sorted(choices, key=lambda c: -prior.rate(c[0], c[1]))
+
+    def base_density(self, action: str, obj: str) -> Callable[[Any, Any, Any], Any] | None:
+        """:meth:`Prior.density` over numpy arrays of base poses in the object's frame
+        (:class:`executive.Preferences`); None when nothing (or no success) was learned."""
+        prior = self.lookup(action, obj)
+        if prior is None or not prior.samples:
+            return None
+        samples = np.asarray(prior.samples, dtype=float)
+
+        def density(x: Any, y: Any, yaw: Any) -> Any:
+            x, y, yaw = np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float)
+            total = np.zeros(np.broadcast(x, y, yaw).shape)
+            for sx, sy, syaw in samples:
+                dyaw = np.remainder(yaw - syaw + math.pi, math.tau) - math.pi
+                d2 = ((x - sx) ** 2 + (y - sy) ** 2) / BANDWIDTH_XY**2 + (dyaw / BANDWIDTH_YAW) ** 2
+                total += np.exp(-0.5 * d2)
+            return total / len(samples)
+
+        return density
 
     def check_robot(self, robot: str) -> None:
         if robot != self.robot:
