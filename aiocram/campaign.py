@@ -85,6 +85,9 @@ class Job:
     #: A database URL the worker writes the rows to itself (PostgreSQL); ``None``: the
     #: rows go back with the record and the parent writes them (SQLite: one writer).
     store: str | None = None
+    #: A learned-priors file (``aiocram experience learn``) the run orders its choices by;
+    #: ``None``: not used. Checked before any job starts (:func:`plan_campaign`).
+    learned: str | None = None
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -101,6 +104,7 @@ def run_job(job: Job) -> dict[str, Any]:
             objects=job.objects,
             runs=job.runs,
             experience=job.experience,
+            learned=job.learned,
         )
     except Exception as exc:  # the campaign records every failure of the harness itself
         result = _crashed(job, f"{type(exc).__name__}: {exc}")
@@ -142,11 +146,12 @@ def _jobs(
     modes: Sequence[bool],
     first_seed: int,
     objects: tuple[str, ...],
+    learned: str | None = None,
 ) -> list[Job]:
     # Seed-major: every prefix of the job list covers each (mode, fault rate) cell evenly,
     # so a campaign stopped early (Ctrl-C, a deadline) still compares like with like.
     return [
-        Job(seed=first_seed + s, fault_rate=f, projection=p, objects=objects)
+        Job(seed=first_seed + s, fault_rate=f, projection=p, objects=objects, learned=learned)
         for s in range(seeds)
         for p in modes
         for f in faults
@@ -458,9 +463,11 @@ def plan_campaign(
     backend: str = "local",
     first_seed: int = 1,
     objects: Sequence[str] = Job.objects,
+    learned: str | os.PathLike[str] | None = None,
 ) -> list[Job]:
     """Check every argument and return the jobs; nothing runs. Bad arguments:
-    ValueError naming what to fix."""
+    ValueError naming what to fix (a bad ``learned`` file: a
+    :class:`aiocram.experience.PriorsError`, a ValueError too)."""
     if seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {seeds}")
     if first_seed < 0:
@@ -477,7 +484,21 @@ def plan_campaign(
         raise ValueError(f"--faults: {', '.join(f'{f:g}' for f in repeated)} given more than once")
     if backend not in ("local", "dask"):
         raise ValueError(f"unknown backend {backend!r}: use 'local' or 'dask'")
-    return _jobs(seeds, faults, projection_modes, first_seed, check_objects(objects))
+    if learned is not None:
+        from aiocram.experience import LearnedPriors, PriorsError, robot_name
+
+        try:
+            LearnedPriors.load(learned).check_robot(robot_name())
+        except PriorsError as exc:
+            raise type(exc)(f"--learned: {exc}") from None
+    return _jobs(
+        seeds,
+        faults,
+        projection_modes,
+        first_seed,
+        check_objects(objects),
+        None if learned is None else str(learned),
+    )
 
 
 def run_campaign(
@@ -490,6 +511,7 @@ def run_campaign(
     scheduler: str | None = None,
     first_seed: int = 1,
     objects: Sequence[str] = Job.objects,
+    learned: str | os.PathLike[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
     on_result: Callable[[dict[str, Any]], None] | None = None,
     results: list[dict[str, Any]] | None = None,
@@ -512,6 +534,7 @@ def run_campaign(
         backend=backend,
         first_seed=first_seed,
         objects=objects,
+        learned=learned,
     )
     if experience is not None:
         jobs = [experience.job(j) for j in jobs]
@@ -862,6 +885,14 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--no-store", action="store_true", help="do not record the runs in the experience store"
     )
+    p.add_argument(
+        "--learned",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="every run orders its choices by these learned priors "
+        "(aiocram experience learn --out FILE); default: not used",
+    )
     p.set_defaults(handler=_command)
 
 
@@ -969,6 +1000,7 @@ def _command(args: argparse.Namespace) -> int:
         backend=args.backend,
         first_seed=args.first_seed,
         objects=args.objects,
+        learned=args.learned,
     )
     try:
         jobs = plan_campaign(**settings)
@@ -1058,6 +1090,7 @@ def _command(args: argparse.Namespace) -> int:
     summary = summarise(results)
     summary["command"] = " ".join(["aiocram", *sys.argv[1:]])
     summary["backend"] = args.backend
+    summary["learned"] = None if args.learned is None else str(args.learned)
     summary["workers"] = args.workers
     summary["wall_time_s"] = time.perf_counter() - t0
     summary["runs_finished"] = len(results)

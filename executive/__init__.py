@@ -22,6 +22,7 @@ from ._designator import (
 from ._environment import (
     Environment,
     Imagination,
+    Preferences,
     current_environment,
     environment,
     with_process_modules,
@@ -126,6 +127,7 @@ __all__ = [
     "Transform",
     "Validation",
     "Imagination",
+    "Preferences",
     "ProbeResult",
     "ProjectionWorld",
     "ArmJointLimits",

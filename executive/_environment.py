@@ -14,7 +14,7 @@ knows the static rules and nothing else.
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Callable, Iterable
+from collections.abc import AsyncIterator, Callable, Iterable, Sequence
 from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Environment",
     "Imagination",
+    "Preferences",
     "current_environment",
     "environment",
     "with_process_modules",
@@ -56,6 +57,26 @@ class Imagination(Protocol):
     def projection(self) -> AbstractAsyncContextManager[Any]:
         """Enter a projection environment (projected process modules, rules and world
         model) over the belief world."""
+        ...
+
+
+class Preferences(Protocol):
+    """What experience taught about the order to try a plan's choices in (e.g. the
+    experience store's learned priors): robot-independent, carried by an environment
+    (:attr:`Environment.preferences`, None: the rules' own order). It only reorders the
+    choices it is given, never adds or drops one."""
+
+    def order_choices(
+        self, action: str, obj: str, choices: Sequence[tuple[str, str | None]]
+    ) -> list[tuple[str, str | None]]:
+        """``choices`` ((arm, grasp) pairs for ``action`` on an ``obj`` type), best first."""
+        ...
+
+    def base_density(self, action: str, obj: str) -> Callable[[Any, Any, Any], Any] | None:
+        """Where the base stood when ``action`` on an ``obj`` type succeeded: a function
+        of the base pose in the object's frame (x, y, yaw; numpy arrays of one shape) to
+        a weight in [0, 1] (1: where experience says to stand), or None when nothing was
+        learned. Location resolution multiplies it into a base costmap, never emptying it."""
         ...
 
 
@@ -87,6 +108,7 @@ class Environment:
         "imagination",
         "name",
         "parent",
+        "preferences",
         "process_modules",
         "projecting",
         "rules",
@@ -101,8 +123,11 @@ class Environment:
         rules: RuleSet | None = None,
         projecting: bool = False,
         imagination: Imagination | None = None,
+        preferences: Preferences | None = None,
     ) -> None:
         self.name = name
+        #: The order to try choices in, learned from experience; None: the rules' order.
+        self.preferences = preferences
         #: True in a projection environment (the robot is imagining, not acting).
         self.projecting = projecting
         #: How to imagine from here (set by a real robot's environment), else None.
@@ -156,6 +181,7 @@ class Environment:
             rules=rules if rules is not None else self.rules,
             projecting=self.projecting,
             imagination=self.imagination,
+            preferences=self.preferences,
         )
         env._owns_rules = False if rules is None else env._owns_rules
         env._subscribers = self._subscribers

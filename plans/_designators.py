@@ -26,7 +26,7 @@ from executive import (
 
 from ._common import as_location
 
-__all__ = ["ROBOT", "default_of"]
+__all__ = ["ROBOT", "default_of", "learned_base"]
 
 
 #: The robot name in ``reachable-for`` / ``visible-for`` location designators.
@@ -40,6 +40,16 @@ def default_of(fn: Callable[..., Any], parameter: str) -> int:
     if isinstance(default, bool) or not isinstance(default, int):
         raise TypeError(f"{fn.__qualname__}({parameter}=...) has no integer default")
     return default
+
+
+def learned_base(action: str, obj: ObjectDesignator) -> dict[str, Any]:
+    """``{"experience": (action, type)}`` for a ``reachable-for`` base location when the
+    environment carries :class:`executive.Preferences` (learned priors) and the object's
+    type is known; else ``{}``, so without preferences the designator is as it always was."""
+    if current_environment().preferences is None:
+        return {}
+    otype = obj.current().get("type")
+    return {"experience": (action, otype)} if isinstance(otype, str) and otype else {}
 
 
 def _location(d: Designator, key: str) -> LocationDesignator:

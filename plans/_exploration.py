@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from itertools import islice
 from typing import Any
@@ -24,10 +24,19 @@ from executive import (
     Pose,
     RuleDoc,
     a,
+    current_environment,
     register_location_generator,
 )
 
-__all__ = ["ARMS", "POOL_PER_RUN", "Exploration", "partition_by_bearing", "to_pose", "wrap"]
+__all__ = [
+    "ARMS",
+    "POOL_PER_RUN",
+    "Exploration",
+    "learned_weight",
+    "partition_by_bearing",
+    "to_pose",
+    "wrap",
+]
 
 log = logging.getLogger("plans.reasoning")
 
@@ -71,6 +80,28 @@ def partition_by_bearing(
         regions.append(tuple(poses[i] for i in members))
         start = end
     return regions
+
+
+def learned_weight(action: str, obj_type: Any, target: Pose) -> Callable[[Pose], float] | None:
+    """The environment's learned base density (:meth:`executive.Preferences.base_density`)
+    for ``action`` on ``obj_type`` at ``target`` (map frame), as a function of a base pose
+    facing it; None without preferences or with nothing learned for the type."""
+    preferences = current_environment().preferences
+    if preferences is None or not isinstance(obj_type, str):
+        return None
+    density = preferences.base_density(action, obj_type)
+    if density is None:
+        return None
+    tx, ty = target.position[0], target.position[1]
+    oyaw = target.yaw
+
+    def weight(base: Pose) -> float:
+        dx, dy = base.position[0] - tx, base.position[1] - ty
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        yaw = wrap(base.yaw - oyaw)
+        return float(density(c * dx + s * dy, -s * dx + c * dy, yaw))
+
+    return weight
 
 
 def _among_generator(d: Designator, env: Environment) -> Iterator[Pose] | None:
@@ -159,10 +190,17 @@ class Exploration:
         return arm
 
     def region(
-        self, key: str, designator: LocationDesignator, around: Sequence[float] | None = None
+        self,
+        key: str,
+        designator: LocationDesignator,
+        around: Sequence[float] | None = None,
+        weight: Callable[[Pose], float] | None = None,
     ) -> LocationDesignator:
         """This run's region of ``designator``'s solutions (see the class docstring);
-        ``around`` = the (x, y) centre of the bearings, default the pool's centroid."""
+        ``around`` = the (x, y) centre of the bearings, default the pool's centroid.
+        ``weight`` (learned from experience, :func:`learned_weight`): the regions are
+        handed out by their poses' mean weight, highest to run 1 (a stable order, so
+        equal weights keep the bearing order); None: by bearing."""
         pool = self.pools.get(key)
         if pool is None:
             try:
@@ -178,12 +216,17 @@ class Exploration:
                 sum(p.position[1] for p in pool) / len(pool),
             )
         regions = partition_by_bearing(pool, around or (0.0, 0.0), self.runs)
-        mine = regions[self.run - 1]
+        order = list(range(self.runs))
+        if weight is not None:
+            means = [sum(map(weight, r)) / len(r) if r else -math.inf for r in regions]
+            order.sort(key=lambda k: -means[k])
+        index = order[self.run - 1]
+        mine = regions[index]
         if not mine:
             self.explored[key] = "plan's own"
             return designator
         bearing = math.degrees(_bearing(mine[0], around or (0.0, 0.0)))
-        self.explored[key] = f"region {self.run}/{self.runs} ({bearing:+.0f}°)"
+        self.explored[key] = f"region {index + 1}/{self.runs} ({bearing:+.0f}°)"
         return a.location(among=mine, then=designator)
 
 

@@ -55,7 +55,7 @@ from ._common import (
     to_map,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object, default_of
+from ._designators import ROBOT, _check_places, _location, _object, default_of, learned_base
 from .checks import (
     PlacingPoseUnstable,
     check_placing_collisions,
@@ -153,7 +153,11 @@ async def deliver(
         base_poses = SolutionCursor(
             given
             if given is not None
-            else a.location(reachable_for=ROBOT, location=a.location(pose=target_pose))
+            else a.location(
+                reachable_for=ROBOT,
+                location=a.location(pose=target_pose),
+                **learned_base("placing", object_designator),
+            )
         )
 
         @retry_scope(

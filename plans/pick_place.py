@@ -1,7 +1,8 @@
 """Pick and place (CRAM's ``pick-place-plans.lisp`` and ``pick-place-designators.lisp``).
 
 ``picking-up (object O) (arm A)? (grasp G)?``: solutions arm-major (right, then left) and
-grasp-minor (the type's grasps in :mod:`executive.knowledge` order); the object must have
+grasp-minor (the type's grasps in :mod:`executive.knowledge` order; an environment's
+``preferences``, e.g. learned priors, reorder the (arm, grasp) pairs); the object must have
 been perceived (its newest designator carries a ``transform`` base -> object, or a
 ``pose``). Waypoints: :func:`executive.knowledge.grasp_poses` (pregrasp, 2nd pregrasp,
 grasp, lift, 2nd lift), in ``base_footprint``.
@@ -334,8 +335,15 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     arm_given = _given_arm(d)
     arms = (arm_given,) if arm_given is not None else knowledge.ARMS
     grasp_names = (d["grasp"],) if "grasp" in d else knowledge.grasps(otype)
-    for arm in arms:
-        for grasp_name, frame in ((g, f) for g in grasp_names for f in frames):
+    # the arm-major, grasp-minor order, reordered by what experience taught (a stable
+    # sort of the (arm, grasp) pairs: the environment's preferences, None: unchanged)
+    pairs: list[tuple[str, str | None]] = [(a, g) for a in arms for g in grasp_names]
+    preferences = current_environment().preferences
+    if preferences is not None:
+        pairs = _checked_order(pairs, preferences.order_choices("picking-up", otype, pairs))
+    for arm, grasp in pairs:
+        assert grasp is not None
+        for grasp_name, frame in ((grasp, f) for f in frames):
             try:
                 poses = knowledge.grasp_poses(otype, grasp_name, frame)
             except LookupError as exc:
@@ -354,6 +362,17 @@ def _picking_up(d: Designator) -> Iterator[Any]:
                         "lift_poses": tuple(poses[3:]),
                     },
                 )
+
+
+def _checked_order(
+    pairs: list[tuple[str, str | None]], ordered: list[tuple[str, str | None]]
+) -> list[tuple[str, str | None]]:
+    """A preferences' order, checked to be a reordering (never an addition or a drop)."""
+    if sorted(ordered, key=str) != sorted(pairs, key=str):
+        raise TypeError(
+            f"Preferences.order_choices must return a reordering of {pairs}, got {ordered}"
+        )
+    return ordered
 
 
 register_resources(pick_up, hand_of)

@@ -49,8 +49,14 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached
 
-from ._designators import ROBOT
-from ._exploration import ARMS, POOL_PER_RUN, Exploration, partition_by_bearing
+from ._designators import ROBOT, learned_base
+from ._exploration import (
+    ARMS,
+    POOL_PER_RUN,
+    Exploration,
+    learned_weight,
+    partition_by_bearing,
+)
 from ._imagination import can_imagine, imagine, run_for_real
 
 __all__ = [
@@ -118,9 +124,18 @@ class FetchAndDeliver:
         """The parameters of ``exploration``'s run (drawn in the imagined world)."""
         arm = exploration.arm(self.arm)
         spot = a.location(of_item_object=self.object.current().get("name")).reference()
-        reachable = a.location(reachable_for=ROBOT, location=a.location(pose=spot), arm=self.arm)
+        reachable = a.location(
+            reachable_for=ROBOT,
+            location=a.location(pose=spot),
+            arm=self.arm,
+            **learned_base("picking-up", self.object),
+        )
+        # learned priors (if the environment has any): the likeliest region imagined first
+        weight = learned_weight("picking-up", self.object.current().get("type"), spot)
         return ProjectedParameters(
-            fetch_robot_location=exploration.region("pick base", reachable, spot.position[:2]),
+            fetch_robot_location=exploration.region(
+                "pick base", reachable, spot.position[:2], weight
+            ),
             exploration=exploration,
             arm=arm,
             target=exploration.region("placing target", self.target),

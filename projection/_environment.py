@@ -49,6 +49,7 @@ async def with_projected_robot(
     *,
     rules: executive.RuleSet | None = _LOCATION_RULES,
     name: str = "projection",
+    preferences: executive.Preferences | None = None,
 ) -> AsyncIterator[executive.Environment]:
     """Run a block with the projected robot on ``world``::
 
@@ -61,7 +62,8 @@ async def with_projected_robot(
     block's modules, world model and rules win (its environment is independent, so events
     emitted inside reach only its subscribers). ``perform`` needs a running cpl task
     (``cpl.run``/``cpl.top_level``). Not a World: TypeError; a closed World:
-    RuntimeError."""
+    RuntimeError. ``preferences``: the order to try choices in, learned from experience
+    (:attr:`executive.Environment.preferences`; None: the rules' own)."""
     if not isinstance(world, World):
         raise TypeError(f"with_projected_robot needs a projection.World, got {world!r}")
     world.client  # noqa: B018 - raises RuntimeError for a closed world
@@ -75,6 +77,7 @@ async def with_projected_robot(
         world=ProjectedWorldModel(world),
         rules=rules,
         projecting=True,
+        preferences=preferences,
     )
     timeline = cpl.current_timeline()
     if timeline is None:  # a nested block shares the projected time of the outer one

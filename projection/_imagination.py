@@ -23,12 +23,16 @@ class ProjectionImagination:
     :func:`projection.with_projected_robot` on the belief world (an environment marked
     ``projecting``). Not a World: TypeError."""
 
-    __slots__ = ("belief_world",)
+    __slots__ = ("belief_world", "preferences")
 
-    def __init__(self, belief_world: World) -> None:
+    def __init__(
+        self, belief_world: World, preferences: executive.Preferences | None = None
+    ) -> None:
         if not isinstance(belief_world, World):
             raise TypeError(f"ProjectionImagination needs a projection.World, got {belief_world!r}")
         self.belief_world = belief_world
+        # the real environment's preferences: imagination tries choices in the same order
+        self.preferences = preferences
 
     def snapshot(self) -> Snapshot:
         """Save the belief world (``World.snapshot``)."""
@@ -43,7 +47,9 @@ class ProjectionImagination:
         """Enter a projection environment over the belief world (projection process
         modules, costmap rules, ``projecting=True``). Leaving it evaporates any goal still
         running; the world is not restored here (the caller restores its snapshot)."""
-        return with_projected_robot(self.belief_world, name="imagination")
+        return with_projected_robot(
+            self.belief_world, name="imagination", preferences=self.preferences
+        )
 
     def __repr__(self) -> str:
         return f"<ProjectionImagination {self.belief_world!r}>"

@@ -40,7 +40,15 @@ from typing import Any, Final
 
 import numpy as np
 
-from executive import DesignatorError, DesignatorInputError, Key, RuleDoc, RuleSet, static_rules
+from executive import (
+    DesignatorError,
+    DesignatorInputError,
+    Key,
+    RuleDoc,
+    RuleSet,
+    current_environment,
+    static_rules,
+)
 from executive._designator import Designator
 from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable
@@ -60,7 +68,11 @@ __all__ = [
 COSTMAP_KEYS: Final = frozenset(
     {"reachable-for", "visible-for", "on", "in", "near", "far-from", "context", *cm.RELATIONS}
 )
-_MODIFIERS: Final = frozenset({"side", "range", "range-invert", "for", "object-count", "arm"})
+_MODIFIERS: Final = frozenset(
+    {"side", "range", "range-invert", "for", "object-count", "arm", "experience"}
+)
+#: The floor of the learned base density factor: it reweights, never empties, a costmap.
+LEARNED_FLOOR: Final = 0.2
 #: ``for`` types whose potential-field threshold is 0.8 (others 0.2).
 PRECISE_TYPES: Final = frozenset({"plate", "fork", "spoon", "knife", "cup"})
 _ROBOT_KEYS: Final = ("reachable-for", "visible-for")
@@ -104,6 +116,13 @@ COSTMAP_DOC: Final = RuleDoc(
             "'left' | 'right'",
             "with reachable-for: the arm that reaches (drawers)",
             default="either",
+        ),
+        Key(
+            "experience",
+            "(action, object type)",
+            "with reachable-for: weight the base poses by where the environment's "
+            "preferences (learned priors) say that action on that type succeeded",
+            default="not weighted",
         ),
         Key("on", _SURFACE, "on top of the surface (repeatable)", default="-"),
         Key("in", _SURFACE, "inside the container (a drawer)", default="-"),
@@ -465,6 +484,8 @@ class LocationCostmaps:
                 plan.drawer_arms = (arm,) if arm is not None else ("left", "right")
             elif robot_key == "reachable-for":
                 cm.add_reachable_for(costmap, [target])
+                if "experience" in d:
+                    self._learned(d, costmap, target)
             else:
                 bodies = {world.robot_body}
                 bodies |= {
@@ -485,6 +506,56 @@ class LocationCostmaps:
         self._context(d, costmap, region, for_type)
         self._relations(d, costmap, for_type, for_size)
         return plan
+
+    def _learned(self, d: Designator, costmap: cm.Costmap, target: Sequence[float]) -> None:
+        """``(experience (action type))``: the environment's learned base density, in the
+        target's frame (its yaw: the target pose's), facing the target as
+        ``reachable-for`` does, floored at :data:`LEARNED_FLOOR` (it reweights, it never
+        empties). Nothing without preferences or without anything learned for the type.
+
+        Deliberate difference from CRAM: its reachability costmap is the same Gaussian for
+        every robot, object and run; here experience may sharpen it (default off)."""
+        value = d["experience"]
+        if not (
+            isinstance(value, tuple | list)
+            and len(value) == 2
+            and all(isinstance(v, str) and v for v in value)
+        ):
+            raise self._error(
+                d,
+                f"(experience ...) takes (action, object type), e.g. ('picking-up', 'cup'), "
+                f"got {value!r}",
+            )
+        preferences = current_environment().preferences
+        density = None if preferences is None else preferences.base_density(*value)
+        if density is None:
+            return
+        loc, pose = d.get("location"), d.get("pose")
+        ref = loc.current().reference() if isinstance(loc, Designator) else pose
+        oyaw = _yaw_of(self._map_pose(ref).orientation) if isinstance(ref, Pose) else 0.0
+        tx, ty = float(target[0]), float(target[1])
+        c, s = math.cos(oyaw), math.sin(oyaw)
+
+        def f(x: Any, y: Any) -> Any:
+            dx, dy = x - tx, y - ty
+            facing = np.arctan2(-dy, -dx)
+            weight = np.asarray(density(c * dx + s * dy, -s * dx + c * dy, facing - oyaw))
+            peak = float(weight.max()) if weight.size else 0.0
+            if peak > 0.0:  # relative to the best cell here: the best gets weight 1
+                weight = weight / peak
+            return LEARNED_FLOOR + (1.0 - LEARNED_FLOOR) * np.clip(weight, 0.0, 1.0)
+
+        costmap.add(
+            "learned-base-density",
+            f,
+            4,
+            bounds=(
+                tx - cm.IN_REACH_DISTANCE,
+                tx + cm.IN_REACH_DISTANCE,
+                ty - cm.IN_REACH_DISTANCE,
+                ty + cm.IN_REACH_DISTANCE,
+            ),
+        )
 
     # ------------------------------------------------------------------ values
     def _names(self) -> list[str]:

@@ -30,6 +30,7 @@ async def with_real_robot(
     *,
     rules: executive.RuleSet | None = _LOCATION_RULES,
     name: str = "real",
+    preferences: executive.Preferences | None = None,
 ) -> AsyncIterator[executive.Environment]:
     """Run a block with the simulated real robot (like ``with_projected_robot``)::
 
@@ -47,8 +48,9 @@ async def with_real_robot(
     only checks that the running loop's clock has that speed (ValueError otherwise; see
     :func:`real_robot_clock`). On entry the belief robot is set to the true one. Leaving
     the block (also on failure or evaporation) stops and evaporates every running motion
-    and leaves every module offline. Not Worlds, or the same world twice: TypeError /
-    ValueError; a closed World: RuntimeError."""
+    and leaves every module offline. ``preferences`` (learned from experience, carried by
+    the environment and its imagination; None: the rules' order). Not Worlds, or the
+    same world twice: TypeError / ValueError; a closed World: RuntimeError."""
     model = RealWorldModel(true_world, belief_world)
     true_world.client  # noqa: B018 - raise RuntimeError for a closed world
     belief_world.client  # noqa: B018
@@ -66,7 +68,8 @@ async def with_real_robot(
         process_modules=real_process_modules(true_world, belief_world, faults),
         world=model,
         rules=rules,
-        imagination=ProjectionImagination(belief_world),
+        imagination=ProjectionImagination(belief_world, preferences),
+        preferences=preferences,
     )
     async with executive.environment(env):
         yield env

@@ -84,6 +84,14 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--no-store", action="store_true", help="do not record the run in the experience store"
     )
+    p.add_argument(
+        "--learned",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="order designator resolution's choices by priors learned from experience "
+        "(aiocram experience learn --out FILE); default: not used",
+    )
     p.set_defaults(handler=_command)
 
 
@@ -109,6 +117,7 @@ def _command(args: argparse.Namespace) -> int:
         out=Path(args.out),
         live=not args.no_live,
         store=None if args.no_store else (args.store or Path(args.out) / "experience.sqlite"),
+        learned=args.learned,
     )
     if args.no_store and args.store is not None:
         print("aiocram demo: error: --store and --no-store: give one of them", file=sys.stderr)

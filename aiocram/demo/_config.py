@@ -74,6 +74,9 @@ class DemoConfig:
     #: The experience store the run is recorded in (an SQLite path or a database URL;
     #: ``None``: not recorded). The command's default is ``OUT/experience.sqlite``.
     store: str | Path | None = None
+    #: Learned priors (``aiocram experience learn --out FILE``) that reorder designator
+    #: resolution's choices; ``None`` (the default): the rules' own order, nothing learned.
+    learned: str | Path | None = None
 
     def check(self) -> None:
         """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
@@ -106,6 +109,22 @@ class DemoConfig:
                 store_url(self.store)
             except StoreError as exc:
                 raise DemoConfigError(str(exc)) from None
+        learned_priors(self)  # raises DemoConfigError for a bad file
+
+
+def learned_priors(config: DemoConfig) -> Any:
+    """The :class:`aiocram.experience.LearnedPriors` of ``--learned`` (None without it),
+    checked for this robot; DemoConfigError naming ``--learned`` if unusable."""
+    if config.learned is None:
+        return None
+    from aiocram.experience import LearnedPriors, PriorsError, robot_name
+
+    try:
+        priors = LearnedPriors.load(config.learned)
+        priors.check_robot(robot_name())
+    except PriorsError as exc:
+        raise DemoConfigError(f"--learned: {exc}") from None
+    return priors
 
 
 def fault_profile(config: DemoConfig) -> Any:

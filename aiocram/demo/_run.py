@@ -29,7 +29,7 @@ import cpl
 from aiocram.foresight import foresight_records
 from aiocram.truth import TruthObserver
 
-from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, fault_profile
+from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, fault_profile, learned_priors
 from ._outputs import OUTPUT_FILES, STALE, route_plan_logs, write_pictures
 from ._report import DemoReport
 
@@ -195,6 +195,7 @@ def run_demo(
 
     del plans  # imported for its action rules
     faults = fault_profile(config)
+    preferences = learned_priors(config)  # checked by config.check(): None or usable
     watch = _Watch()
     progress = Progress(config.objects)
     instruments: list[cpl.Instrument] = [watch, progress]
@@ -231,7 +232,12 @@ def run_demo(
             rules = costmaps.recording(rules)
         assert observer is not None and transports is not None
         async with with_real_robot(
-            true_world, belief_world, faults=faults, speed=config.speed, rules=rules
+            true_world,
+            belief_world,
+            faults=faults,
+            speed=config.speed,
+            rules=rules,
+            preferences=preferences,
         ) as env:
             observer.subscribe(env)
             transports.subscribe(env)
@@ -372,11 +378,13 @@ def run_demo_once(
     objects: Sequence[str] = DEFAULT_OBJECTS,
     runs: int = 3,
     experience: bool = False,
+    learned: str | None = None,
 ) -> dict[str, Any]:
     """One headless campaign run at a uniform fault rate (seeded by ``seed``); the JSON
     record of :class:`DemoReport`. ``experience=True``: the record also carries the run's
     experience-store rows under ``"experience"`` (:func:`aiocram.experience.run_rows`,
-    read from the run's task tree after the run), for the campaign to write."""
+    read from the run's task tree after the run), for the campaign to write. ``learned``:
+    a learned-priors file the run orders its choices by (``--learned``)."""
     from projection import FaultProfile
 
     config = DemoConfig(
@@ -386,6 +394,7 @@ def run_demo_once(
         projection=projection,
         faults=FaultProfile.uniform(fault_rate, seed=seed),
         live=False,
+        learned=learned,
     )
     report = run_demo(config)
     record = report.to_json()

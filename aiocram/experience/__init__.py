@@ -27,16 +27,31 @@ from ._errors import (
 )
 from ._extract import current_commit, robot_name, run_rows
 from ._plot import plot_failures
+from ._priors import (
+    PRIORS_VERSION,
+    LearnedPriors,
+    PriorsCorruptError,
+    PriorsError,
+    PriorsRobotError,
+    PriorsVersionError,
+    learn_priors,
+)
 from ._record import check_store, default_store, record_run
 from ._schema import SCHEMA_VERSION
 from ._store import FAILURE_GROUPS, Comparison, ParameterStats, Selection, Store
 
 __all__ = [
     "FAILURE_GROUPS",
+    "PRIORS_VERSION",
     "SCHEMA_VERSION",
     "STORE_FILE",
     "Comparison",
+    "LearnedPriors",
     "ParameterStats",
+    "PriorsCorruptError",
+    "PriorsError",
+    "PriorsRobotError",
+    "PriorsVersionError",
     "Selection",
     "Store",
     "StoreCorruptError",
@@ -48,6 +63,7 @@ __all__ = [
     "check_store",
     "current_commit",
     "default_store",
+    "learn_priors",
     "plot_failures",
     "record_run",
     "robot_name",

@@ -5,7 +5,8 @@
 - ``parameters --object cup [--surface S] [--action picking-up|placing]``: which arm
   and grasp succeeded, and where the base stood relative to the object;
 - ``compare A B``: two campaigns or two commits (ids or unique prefixes) side by side;
-- ``plot [--png FILE]``: failures by kind per fault rate, as a picture.
+- ``plot [--png FILE]``: failures by kind per fault rate, as a picture;
+- ``learn --out priors.json``: learned priors (:mod:`._priors`) for ``--learned``.
 
 Exit status: 0 answered, 2 bad arguments or a store that cannot be read (the message
 says what to fix).
@@ -102,6 +103,17 @@ def add_parser(subparsers: Any) -> None:
     )
     g.add_argument("--imagined", action="store_true", help="the imagined runs' failures")
     g.set_defaults(handler=_plot)
+    lp = sub.add_parser(
+        "learn",
+        parents=[common],
+        help="learn priors (arm/grasp success, base pose density) into a JSON file",
+        formatter_class=HelpFormatter,
+    )
+    lp.add_argument(
+        "--out", type=Path, required=True, metavar="FILE", help="the priors file to write"
+    )
+    lp.add_argument("--robot", metavar="NAME", help="whose runs (default: the store's one robot)")
+    lp.set_defaults(handler=_learn)
     p.set_defaults(handler=lambda args: p.print_help() or 2)
 
 
@@ -273,6 +285,43 @@ def _compare(args: argparse.Namespace) -> int:
             x, y = a.by_kind.get(kind, 0), b.by_kind.get(kind, 0)
             table.add_row(f"  {kind}", str(x), str(y), f"{y - x:+d}")
         _console().print(table)
+        return 0
+
+    return _guarded(args, answer)
+
+
+def _learn(args: argparse.Namespace) -> int:
+    from ._priors import learn_priors
+
+    def answer(store: Any) -> int:
+        priors = learn_priors(store, args.robot)
+        table = _table(
+            f"learned priors for {priors.robot} ({priors.runs} runs)",
+            [
+                ("action", "left"),
+                ("object", "left"),
+                ("surface", "left"),
+                ("n", "right"),
+                ("success", "right"),
+                ("best (rate)", "left"),
+                ("base samples", "right"),
+            ],
+            caption="real runs only; rate (succeeded + 1) / (tried + 2); base samples: "
+            "successful base poses in the object frame, read as a kernel density",
+        )
+        for p in priors.priors:
+            best = p.choices[0]
+            table.add_row(
+                p.action,
+                p.object,
+                p.surface or "-",
+                str(p.tried),
+                f"{100 * p.succeeded / p.tried:.0f} %" if p.tried else "-",
+                f"{best.arm}/{best.grasp} ({best.smoothed:.2f})",
+                str(len(p.samples)),
+            )
+        _console().print(table)
+        print(f"wrote {priors.save(args.out)}")
         return 0
 
     return _guarded(args, answer)

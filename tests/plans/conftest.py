@@ -45,6 +45,7 @@ class Robot:
     world: InMemoryWorld
     pms: dict[str, FakeProcessModule] = field(default_factory=dict)
     rules: RuleSet = field(default_factory=lambda: static_rules.child("test"))
+    preferences: Any = None  # executive.Preferences, None: the rules' order
 
     def calls(self, name: str, motion_type: str | None = None) -> list[Any]:
         return [m for m in self.pms[name].calls if motion_type is None or m.type == motion_type]
@@ -52,7 +53,11 @@ class Robot:
     def run(self, fn: Any, *args: Any) -> Any:
         async def main() -> Any:
             env = executive.Environment(
-                "test", process_modules=self.pms.values(), world=self.world, rules=self.rules
+                "test",
+                process_modules=self.pms.values(),
+                world=self.world,
+                rules=self.rules,
+                preferences=self.preferences,
             )
             async with executive.environment(env):
                 return await fn(*args)

@@ -22,6 +22,7 @@ from test_reasoning import (  # type: ignore[import-not-found]
 import cpl
 from aiocram.fidelity import fidelity_of, measure_fidelity
 from executive import DesignatorError, Pose, a, perform, performed
+from plans._exploration import learned_weight
 from plans.reasoning import (
     Exploration,
     ProjectedParameters,
@@ -74,6 +75,66 @@ def test_a_region_is_tried_first_then_the_plans_own_solutions():
         )
         assert all(any(p == q for q in spots) for p in head)
     assert len({tuple(p.position for p in r[:4]) for r in (first, second, third)}) == 3
+
+
+def test_learned_weights_hand_the_likeliest_region_to_the_first_run():
+    """With a weight (learned priors), run 1 imagines the region whose poses weigh most;
+    without, the regions go out by bearing. Fails if the weight is ignored."""
+    _world, real, _dream, imagination = setup()
+
+    def first_regions(weight: Any) -> list[list[Pose]]:
+        async def regions() -> list[list[Pose]]:
+            pools: dict[str, Any] = {}
+            out = []
+            for run in (1, 2, 3):
+                own = a.location(spots=12)
+                exploration = Exploration(run, 3, pools)
+                region = exploration.region("spots", own, around=(1.0, 1.1), weight=weight)
+                out.append(list(region.solutions())[:4])
+            return out
+
+        return run_real(real, imagination, regions)[1]
+
+    plain = first_regions(None)
+    # the weight favours the region the bearing order hands out last (near its mean y)...
+    centre = sum(q.position[1] for q in plain[2]) / 4
+    weighted = first_regions(lambda p: -abs(p.position[1] - centre))
+    assert [q.position for q in weighted[0]] == [q.position for q in plain[2]]
+    # ...and every region is still imagined by exactly one run
+    assert sorted(tuple(q.position for q in r) for r in weighted) == sorted(
+        tuple(q.position for q in r) for r in plain
+    )
+
+
+def test_learned_weight_reads_the_environments_preferences():
+    import executive
+
+    class Ahead:
+        def order_choices(self, action: str, obj: str, choices: Any) -> list[Any]:
+            return list(choices)
+
+        def base_density(self, action: str, obj: str) -> Any:
+            if obj != "cup":
+                return None
+            # the base 0.6 m in front of the object (its -x), facing it
+            return lambda x, y, yaw: np.exp(-((x + 0.6) ** 2 + y**2) / 0.02 - yaw**2)
+
+    target = Pose((1.0, 1.0, 0.9))
+    got: dict[str, Any] = {}
+
+    async def main() -> None:
+        got["none"] = learned_weight("picking-up", "cup", target)
+        env = executive.Environment(preferences=Ahead())
+        async with executive.environment(env):
+            got["cup"] = learned_weight("picking-up", "cup", target)
+            got["bowl"] = learned_weight("picking-up", "bowl", target)
+
+    cpl.run(main)
+    assert got["none"] is None and got["bowl"] is None
+    weight = got["cup"]
+    in_front = Pose((0.4, 1.0, 0.0))  # yaw 0: facing the object
+    behind = Pose((1.6, 1.0, 0.0))
+    assert weight(in_front) == pytest.approx(1.0) and weight(behind) < 1e-6
 
 
 def test_then_must_be_a_location_designator():

@@ -132,6 +132,44 @@ def test_picking_up_solutions_are_arm_major_grasp_minor(cup_world):
         assert above[0].position[:2] == pytest.approx(straight[0].position[:2])
 
 
+class _Reversed:
+    """Preferences that put the rules' last (arm, grasp) first."""
+
+    def __init__(self) -> None:
+        self.asked: list[tuple[str, str]] = []
+
+    def order_choices(self, action, obj, choices):
+        self.asked.append((action, obj))
+        return list(reversed(choices))
+
+
+def _pick_choices(robot) -> list[tuple[str, str]]:
+    async def solutions():
+        action = an.action(type="picking-up", object=perceived_cup(robot.world))
+        return [(g.arguments["arm"], g.arguments["grasp"]) for g in action.solutions()]
+
+    return robot.run(solutions)[::2]  # each pair twice (straight, from above)
+
+
+def test_picking_up_solutions_follow_the_environments_preferences(cup_world):
+    robot = make_robot(cup_world)
+    robot.preferences = _Reversed()
+    rules_order = [(arm, g) for arm in ("right", "left") for g in knowledge.grasps("cup")]
+    assert _pick_choices(robot) == list(reversed(rules_order))
+    assert robot.preferences.asked == [("picking-up", "cup")]
+
+
+def test_preferences_may_only_reorder(cup_world):
+    class Adding:
+        def order_choices(self, action, obj, choices):
+            return [*choices, ("right", "made-up")]
+
+    robot = make_robot(cup_world)
+    robot.preferences = Adding()
+    with pytest.raises(TypeError, match="reordering"):
+        _pick_choices(robot)
+
+
 def test_picking_up_sequence_and_attachment(cup_world):
     robot = make_robot(cup_world)
     action = an.action(type="picking-up", object=perceived_cup(cup_world), arm="left")

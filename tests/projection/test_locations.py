@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 import executive
@@ -463,3 +464,70 @@ def test_navigation_error_is_not_swallowed(world: World) -> None:
     assert engine.validate_robot_collision(d, Pose((1.5, 0.5, 0.0))) == "reject"
     assert engine.validate_robot_collision(d, Pose((0.6, 0.5, 0.0))) == "unknown"
     assert issubclass(NavigationPoseUnreachable, Exception)
+
+
+# ------------------------------------------------------------ learned base density
+class _Peaked:
+    """Preferences whose learned base density peaks at ``at`` (x, y in the target's frame)."""
+
+    def __init__(self, at: tuple[float, float] | None) -> None:
+        self.at = at
+        self.asked: list[tuple[str, str]] = []
+
+    def order_choices(self, action: str, obj: str, choices: Any) -> list[Any]:
+        return list(choices)
+
+    def base_density(self, action: str, obj: str) -> Any:
+        self.asked.append((action, obj))
+        if self.at is None:
+            return None
+        ax, ay = self.at
+        return lambda x, y, yaw: np.exp(-((x - ax) ** 2 + (y - ay) ** 2) / (2 * 0.05**2))
+
+
+def _samples_with(preferences: Any, n: int = 30) -> list[Pose]:
+    target = Pose((1.4, 0.8, 0.87))
+    d = a.location(
+        reachable_for="pr2", location=a.location(pose=target), experience=("picking-up", "cup")
+    )
+    with World(seed=0) as world:
+
+        async def main() -> list[Pose]:
+            env = executive.Environment(rules=location_rules(world), preferences=preferences)
+            async with executive.environment(env):
+                return solutions(d, n)
+
+        return asyncio.run(main())
+
+
+def test_a_learned_base_density_draws_the_samples_to_where_experience_stood() -> None:
+    # in the target's frame (its yaw is 0: the map's axes): 0.12 m left of where the
+    # rules' Gaussian peaks, at the edge of the free space in front of the counter
+    peak = (-0.68, 0.12)
+    learned = _Peaked(peak)
+    plain = _samples_with(None)
+    drawn = _samples_with(learned)
+    assert learned.asked == [("picking-up", "cup")]
+    where = (1.4 + peak[0], 0.8 + peak[1])
+
+    def mean_distance(poses: list[Pose]) -> float:
+        return sum(math.dist(p.position[:2], where) for p in poses) / len(poses)
+
+    # the floor (LEARNED_FLOOR) bounds the reweighting to 5x: a clear shift, not a collapse
+    assert mean_distance(drawn) < 0.75 * mean_distance(plain)
+    for p in drawn:  # still reachable-for poses: reweighted, nothing added
+        assert 0.2 < math.dist(p.position[:2], (1.4, 0.8)) < 0.7
+
+
+def test_nothing_learned_for_the_type_leaves_the_costmap_as_it_was() -> None:
+    assert [p.position for p in _samples_with(_Peaked(None))] == [
+        p.position for p in _samples_with(None)
+    ]
+
+
+def test_a_malformed_experience_key_is_an_input_error(world: World) -> None:
+    d = a.location(
+        reachable_for="pr2", location=a.location(pose=Pose((1.4, 0.8, 0.87))), experience="cup"
+    )
+    with pytest.raises(executive.DesignatorInputError, match=r"\(experience ...\) takes"):
+        run(world, d.reference)
