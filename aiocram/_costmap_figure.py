@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from projection.render import draw_objects
+from projection.render import draw_furniture, draw_objects, kitchen_boxes
 
 __all__ = ["costmap_figure", "draw_costmap", "draw_furniture", "kitchen_boxes"]
 
@@ -70,33 +70,6 @@ _PURPOSE = {
     "reachable": "where to stand to reach",
     "location": "where to stand for",
 }
-
-
-def kitchen_boxes(world: Any) -> list[tuple[Sequence[float], Sequence[float]]]:
-    """The kitchen furniture's axis-aligned boxes ``(lo, hi)`` in ``world``."""
-    from projection import _costmaps as cmod
-
-    return [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
-
-
-def draw_furniture(
-    ax: Any, boxes: Iterable[tuple[Sequence[float], Sequence[float]]], lw: float = 1.0
-) -> None:
-    """The furniture's footprints on a floor-plan axes (grey, under everything else)."""
-    from matplotlib.patches import Rectangle
-
-    for lo, hi in boxes:
-        ax.add_patch(
-            Rectangle(
-                (lo[0], lo[1]),
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                facecolor=(0.85, 0.85, 0.85),
-                edgecolor="0.35",
-                lw=lw,
-                zorder=0,
-            )
-        )
 
 
 #: the imagined alternatives' colours: clear of the objects' blue, the failures' red and

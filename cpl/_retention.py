@@ -44,6 +44,7 @@ run chooses what to keep.
 
 from __future__ import annotations
 
+import abc
 import gc
 import os
 from collections import deque
@@ -78,15 +79,15 @@ _HIDEABLE = frozenset({Status.SUCCEEDED, Status.EVAPORATED})
 _Record = tuple[Any, ...]
 
 
-class Retention:
+class Retention(abc.ABC):
     """Base class of the retention policies (immutable configuration; the state of one
     run lives in the retainer :meth:`_start` makes for it)."""
 
     __slots__ = ()
 
+    @abc.abstractmethod
     def _start(self, root: Task) -> _Retainer | None:
         """The retainer of the run whose top level is ``root`` (``None``: keep all)."""
-        raise NotImplementedError
 
     def __repr__(self) -> str:
         return f"cpl.{type(self).__name__}()"

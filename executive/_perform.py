@@ -120,14 +120,23 @@ def _motion_uses(
     declared = env.rules.resources_for(command)
     if declared is None:
         return None
+    return _acquire(env, declared[0], arguments, motion, is_action=False, exclusive=False)
+
+
+def _acquire(
+    env: Environment, fn: Any, arguments: Any, goal: Designator, *, is_action: bool, exclusive: bool
+) -> list[Any] | None:
+    """Acquire the resources ``fn`` names for ``goal``'s ``arguments`` in the environment's
+    ledger (:class:`executive.ResourceConflict` if another holds them); ``None`` when it
+    names none, or outside a task."""
+    resources = resources_of(fn, arguments, goal)
     task = cpl.current_task()
-    resources = resources_of(declared[0], arguments, motion)
     if task is None or not resources:
         return None
     parts = env.resources
-    check_parts(resources, parts, motion)
+    check_parts(resources, parts, goal)
     return env._ledger.acquire(
-        resources, task, motion, is_action=False, exclusive=False, parts=parts
+        resources, task, goal, is_action=is_action, exclusive=exclusive, parts=parts
     )
 
 
@@ -139,21 +148,14 @@ async def _perform_action(action: ActionDesignator) -> Any:
     if declared is None:
         return await _run_plan(action, grounding)
     fn, shared = declared
-    resources = resources_of(fn, arguments, action)
-    task = cpl.current_task()
-    if task is None or not resources:
+    uses = _acquire(env, fn, arguments, action, is_action=True, exclusive=not shared)
+    if uses is None:
         return await _run_plan(action, grounding)
-    parts = env.resources
-    check_parts(resources, parts, action)
-    ledger = env._ledger
-    uses = ledger.acquire(
-        resources, task, action, is_action=True, exclusive=not shared, parts=parts
-    )
     try:
         await _let_siblings_claim()
         return await _run_plan(action, grounding)
     finally:
-        ledger.release(uses)
+        env._ledger.release(uses)
 
 
 async def _let_siblings_claim() -> None:

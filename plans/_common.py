@@ -57,12 +57,12 @@ _BASE_ONLY = (Resource.base(),)
 
 
 def the_base(_arguments: Any) -> tuple[Resource]:
-    """The resources of a plan that positions the base for what it does next (fetching,
-    delivering, searching, transporting, accessing): the base, for the plan's whole
-    duration. Its own navigation claims it again within that claim; a sibling branch's
-    plan that needs the base fails with :class:`executive.ResourceConflict` before it
-    drives, instead of driving the base away between this plan's navigation and its
-    grasp."""
+    """The resources of a plan that drives the base, or positions it for what it does next
+    (going, navigating; fetching, delivering, searching, transporting, accessing): the
+    base, for the plan's whole duration. Its own navigation claims it again within that
+    claim; a sibling branch's plan that needs the base fails with
+    :class:`executive.ResourceConflict` before it drives, instead of driving the base away
+    between this plan's navigation and its grasp."""
     return _BASE_ONLY
 
 

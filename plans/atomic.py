@@ -73,7 +73,14 @@ from executive import (
 )
 from executive.events import ObjectDetached, ObjectPerceived, RobotStateChanged
 
-from ._common import CountedRetries, as_location, grippers_named, perform_ignoring, wrist_link
+from ._common import (
+    CountedRetries,
+    as_location,
+    grippers_named,
+    perform_ignoring,
+    the_base,
+    wrist_link,
+)
 
 _log = logging.getLogger(__name__)
 
@@ -168,8 +175,8 @@ def _going(d: Designator) -> Iterator[Any]:
     yield go_to_target, {"target": target}
 
 
-_BASE, _HEAD, _TORSO = (Resource.base(),), (Resource.head(),), (Resource.torso(),)
-register_resources(go_to_target, lambda _args: _BASE)
+_HEAD, _TORSO = (Resource.head(),), (Resource.torso(),)
+register_resources(go_to_target, the_base)
 
 
 # ------------------------------------------------------------------------------ looking

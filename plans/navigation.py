@@ -54,6 +54,7 @@ from executive import (
 from ._common import (
     CountedRetries,
     perform_ignoring,
+    the_base,
     to_base,
     to_map,
     translating_failures,
@@ -176,8 +177,7 @@ def _navigating(d: Designator) -> Iterator[Any]:
     yield go_without_collisions, {"location": _location(d, "location")}
 
 
-_BASE = (Resource.base(),)
-register_resources(go_without_collisions, lambda _args: _BASE)
+register_resources(go_without_collisions, the_base)
 
 
 # ----------------------------------------------------------------------- turning towards

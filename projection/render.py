@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,7 +21,9 @@ __all__ = [
     "OVERVIEW_CAMERA",
     "camera_image",
     "camera_showing",
+    "draw_furniture",
     "draw_objects",
+    "kitchen_boxes",
     "scene",
     "visible_pixels",
 ]
@@ -225,7 +227,6 @@ def costmap(
     from matplotlib.patches import Rectangle
 
     from executive import current_environment
-    from projection import _costmaps as cmod
     from projection._locations import LocationCostmaps, costmaps_of
 
     if isinstance(scale, bool) or not isinstance(scale, int) or not 1 <= scale <= 20:
@@ -244,7 +245,7 @@ def costmap(
     w = engine.world
     cmap = engine.costmap(designator.first())
     spec = cmap.spec
-    boxes = [w.link_aabb(link) for link in cmod.KITCHEN_LINKS]
+    boxes = kitchen_boxes(w)
     x0 = min(lo[0] for lo, _ in boxes) - 0.2
     x1 = max(hi[0] for _, hi in boxes) + 0.2
     y0 = min(lo[1] for lo, _ in boxes) - 0.2
@@ -277,18 +278,7 @@ def costmap(
             )
             bar = fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
             bar.set_label("costmap value / max (blank = excluded)")
-        for lo, hi in boxes:
-            ax.add_patch(
-                Rectangle(
-                    (lo[0], lo[1]),
-                    hi[0] - lo[0],
-                    hi[1] - lo[1],
-                    facecolor="none",
-                    edgecolor="0.35",
-                    lw=1.0,
-                    zorder=2,
-                )
-            )
+        draw_furniture(ax, boxes, filled=False)
         draw_objects(ax, {name: w.object_aabb(name) for name in w.objects})
 
         def dots(poses: list[Any], colour: str, size: float) -> None:
@@ -384,6 +374,39 @@ def _render(
         **extra,
     )
     return rgba, seg, view, proj
+
+
+def kitchen_boxes(world: World) -> list[tuple[Sequence[float], Sequence[float]]]:
+    """The kitchen furniture's axis-aligned boxes ``(lo, hi)`` in ``world``."""
+    from projection import _costmaps as cmod
+
+    return [world.link_aabb(link) for link in cmod.KITCHEN_LINKS]
+
+
+def draw_furniture(
+    ax: Any,
+    boxes: Iterable[tuple[Sequence[float], Sequence[float]]],
+    lw: float = 1.0,
+    *,
+    filled: bool = True,
+) -> None:
+    """The furniture's footprints on a top-down matplotlib axis: grey, under everything
+    else (``filled``); or outlined only, over a heat map that must stay visible."""
+    from matplotlib.patches import Rectangle
+
+    face: Any = (0.85, 0.85, 0.85) if filled else "none"
+    for lo, hi in boxes:
+        ax.add_patch(
+            Rectangle(
+                (lo[0], lo[1]),
+                hi[0] - lo[0],
+                hi[1] - lo[1],
+                facecolor=face,
+                edgecolor="0.35",
+                lw=lw,
+                zorder=0 if filled else 2,
+            )
+        )
 
 
 def draw_objects(ax: Any, boxes: Any) -> None:
