@@ -124,22 +124,27 @@ class Resource:
 
     @classmethod
     def base(cls) -> Resource:
+        """The robot's base (one per robot)."""
         return cls(ResourceKind.BASE)
 
     @classmethod
     def torso(cls) -> Resource:
+        """The torso lift (one per robot)."""
         return cls(ResourceKind.TORSO)
 
     @classmethod
     def head(cls) -> Resource:
+        """The head: pan/tilt and the camera it points (one per robot)."""
         return cls(ResourceKind.HEAD)
 
     @classmethod
     def arm(cls, part: str) -> Resource:
+        """The arm named ``part`` (CRAM's ``left`` / ``right``)."""
         return cls(ResourceKind.ARM, part)
 
     @classmethod
     def gripper(cls, part: str) -> Resource:
+        """The gripper of the arm named ``part``."""
         return cls(ResourceKind.GRIPPER, part)
 
     def __str__(self) -> str:
@@ -256,6 +261,7 @@ class ResourceLedger:
         return acquired
 
     def release(self, uses: list[_Use]) -> None:
+        """Give back what :meth:`acquire` returned (once, when the goal ends)."""
         held_by = self._uses
         for use in uses:
             held = held_by.get(use.resource)

@@ -100,6 +100,7 @@ class JointInfo:
 
     @property
     def movable(self) -> bool:
+        """Whether the joint moves (not fixed)."""
         return self.kind in MOVABLE_KINDS
 
 
