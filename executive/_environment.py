@@ -22,10 +22,11 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 from ._resources import Resource, ResourceLedger
 from ._rules import RuleSet, static_rules
 from ._world import ProjectionWorld
-from .failures import NoWorldModel
+from .failures import NoRobotDescription, NoWorldModel
 
 if TYPE_CHECKING:
     from ._process_module import ProcessModule
+    from ._robot import RobotDescription
     from .events import Event
 
 __all__ = [
@@ -162,6 +163,22 @@ class Environment:
     @property
     def has_world(self) -> bool:
         return self._world is not None
+
+    @property
+    def robot(self) -> RobotDescription:
+        """The description of the robot this environment drives: its world model's
+        (:attr:`executive.WorldQueries.robot`). Plans read the robot's name, arms, frames
+        and named states here and never spell them. No world model:
+        :class:`executive.NoWorldModel`; a world model without a description:
+        :class:`executive.NoRobotDescription`."""
+        robot = self.world.robot
+        if robot is None:
+            raise NoRobotDescription(
+                f"environment {self.name!r}: its world model {type(self.world).__name__} "
+                "carries no robot description; build it with robot=<a "
+                "RobotDescription, e.g. from the top-level robots package>"
+            )
+        return robot
 
     # -- derivation -------------------------------------------------------------------
     def derive(

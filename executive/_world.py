@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 from ._pose import Pose
 
 if TYPE_CHECKING:
+    from ._robot import RobotDescription
     from .events import Event
 
 __all__ = [
@@ -104,6 +105,14 @@ class WorldQueries(WorldModel, Protocol):
     def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between ``arm``'s finger pads, from the robot's joint states;
         None when the world does not know it (plans then cannot verify a grasp)."""
+        ...
+
+    @property
+    def robot(self) -> RobotDescription | None:
+        """The description of the robot this world model holds (its arms, frames, named
+        states: :class:`executive.RobotDescription`); None for a world with no robot body
+        (plans then reach it through :attr:`executive.Environment.robot`, which raises
+        :class:`executive.NoRobotDescription`)."""
         ...
 
 

@@ -47,6 +47,7 @@ __all__ = [
     "NavigationLowLevelFailure",
     "NavigationPoseUnreachable",
     "NoProcessModule",
+    "NoRobotDescription",
     "NoWorldModel",
     "ObjectNowhereToBeFound",
     "ObjectUndeliverable",
@@ -392,6 +393,14 @@ class NoWorldModel(LookupError):
     plan failure."""
 
     cram_name = "no-world-model"
+
+
+class NoRobotDescription(LookupError):
+    """The current environment's world model carries no robot description (an in-memory
+    test world built without ``robot=``), and a plan asked for the robot's arms, frames or
+    named states. A programming error, not a plan failure."""
+
+    cram_name = "no-robot-description"
 
 
 def cram_name_of(failure: BaseException | type[BaseException]) -> str:

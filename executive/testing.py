@@ -22,6 +22,7 @@ from ._designator import Designator
 from ._pose import Pose, Transform
 from ._process_module import ProcessModule
 from ._resources import Resource
+from ._robot import RobotDescription
 from ._world import AABB, ProbeResult
 from .events import (
     ContainerClosed,
@@ -96,7 +97,11 @@ class InMemoryWorld:
         blocked_poses: Collection[Pose] = (),
         unreachable_waypoints: Collection[Pose] = (),
         unstable_poses: Collection[Pose] = (),
+        robot: RobotDescription | None = None,
     ) -> None:
+        #: The robot's description (:attr:`executive.WorldQueries.robot`); None: plans that
+        #: need the robot's arms or frames raise :class:`executive.NoRobotDescription`.
+        self.robot = robot
         self.objects: dict[str, WorldObject] = {}
         for name, pose in (objects or {}).items():
             self.add_object(name, pose, type=(types or {}).get(name))

@@ -9,6 +9,7 @@ from typing import Any
 import pybullet as pb
 
 from executive import Pose, ProbeResult
+from executive._robot import RobotDescription
 from executive.events import (
     ContainerClosed,
     ContainerOpened,
@@ -56,6 +57,11 @@ class RealWorldModel:
         self._links = _robot_links(true_world)
 
     # -- queries and probes: the belief's -------------------------------------------
+    @property
+    def robot(self) -> RobotDescription:
+        """The description of the robot (the belief's, the same robot as the true one's)."""
+        return self.belief.robot
+
     def object_pose(self, name: str, frame: str = "map") -> Pose:
         return self.belief.object_pose(name, frame)
 

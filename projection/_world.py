@@ -32,6 +32,7 @@ Poses are :class:`executive._pose.Pose` in ``map`` or ``base_footprint``.
 
 from __future__ import annotations
 
+from executive._robot import RobotDescription
 from projection._world_base import ASSETS, DEFAULT_TORSO, FRAMES, KITCHEN, ROBOT
 from projection._world_collisions import COLLISION_TOLERANCE, Contact
 from projection._world_containers import Containers
@@ -74,6 +75,8 @@ class World(Perception, Grippers, ArmIK, Containers, Snapshots, Stability, BodyM
     (``_world_snapshots``) and placing stability (``_world_stability``).
     """
 
-    def __init__(self, seed: int | None = None, gui: bool = False) -> None:
-        super().__init__(seed, gui)
+    def __init__(
+        self, seed: int | None = None, gui: bool = False, *, robot: RobotDescription | None = None
+    ) -> None:
+        super().__init__(seed, gui, robot=robot)
         self._init_ik()

@@ -19,6 +19,7 @@ import pybullet as pb
 
 from executive import knowledge
 from executive._pose import Pose
+from executive._robot import RobotDescription
 from executive.knowledge import ARM_PREFIX
 from projection import _urdf
 from projection._geometry import Tf as _Tf
@@ -26,6 +27,7 @@ from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
 from projection._names import UnknownName
 from projection._objects import object_type
+from robots import pr2
 
 _REST = (0.0,)  # a joint's velocity after a reset
 
@@ -98,7 +100,16 @@ class WorldBase:
     """The client, bodies, names, frames, registry and attachments of a
     :class:`projection.World` (see there)."""
 
-    def __init__(self, seed: int | None = None, gui: bool = False) -> None:
+    def __init__(
+        self, seed: int | None = None, gui: bool = False, *, robot: RobotDescription | None = None
+    ) -> None:
+        if robot is None:
+            robot = pr2.DESCRIPTION
+        if not isinstance(robot, RobotDescription):
+            raise TypeError(f"World(robot=...) takes an executive.RobotDescription, got {robot!r}")
+        #: The description of the robot this world holds (issue 25: only the PR2-like
+        #: robot's body is built so far).
+        self.robot: RobotDescription = robot
         self._c = -1
         self._side = -1
         if seed is not None and (

@@ -16,6 +16,7 @@ import pybullet as pb
 
 from cpl import PlanFailure as _PlanFailure
 from executive import Pose, ProbeResult
+from executive._robot import RobotDescription
 from executive.events import (
     ContainerClosed,
     ContainerOpened,
@@ -96,6 +97,11 @@ class ProjectedWorldModel:
             pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
             for i in range(pb.getNumJoints(robot, physicsClientId=c))
         )
+
+    @property
+    def robot(self) -> RobotDescription:
+        """The description of the robot the world holds."""
+        return self.world.robot
 
     # ------------------------------------------------------------------ queries
     def _known(self, name: Any) -> str:
