@@ -29,6 +29,7 @@ from executive import (
     kitchen,
     yaw_quaternion,
 )
+from executive._robot import RobotDescription
 from projection._objects import object_type
 from projection._real_body import settle
 from projection._world import ROBOT, World
@@ -65,6 +66,7 @@ def make_world_pair(
     belief_objects: Literal["none", "exact", "noisy"] = "none",
     noise: tuple[float, float] = (0.02, 0.1),
     gui: bool = False,
+    robot: RobotDescription | None = None,
 ) -> tuple[World, World]:
     """Two worlds from the same assets: ``(true_world, belief_world)``, robot and kitchen
     identical. ``objects`` (default :data:`DEMO_OBJECTS`; name -> (type, pose[, link to
@@ -72,13 +74,15 @@ def make_world_pair(
     from the counter below), which then settles for 100 physics steps. The belief knows
     them not at all (``"none"``: perception teaches it), exactly (``"exact"``), or with
     Gaussian ``noise`` = (x/y std m, yaw std rad) drawn from ``seed`` (``"noisy"``).
-    ``gui=True`` shows the true world in a PyBullet window (needs a display). The caller
-    closes both worlds. Bad ``belief_objects``: ValueError."""
+    ``gui=True`` shows the true world in a PyBullet window (needs a display). ``robot``:
+    the robot both worlds hold (default: the PR2-like robot). The caller closes both
+    worlds. Bad ``belief_objects``: ValueError."""
     if belief_objects not in ("none", "exact", "noisy"):
         raise ValueError(
             f"belief_objects must be 'none', 'exact' or 'noisy', got {belief_objects!r}"
         )
-    true_world, belief_world = World(seed=seed, gui=gui), World(seed=seed)
+    true_world = World(seed=seed, gui=gui, robot=robot)
+    belief_world = World(seed=seed, robot=robot)
     try:
         spec = DEMO_OBJECTS if objects is None else objects
         for name, entry in spec.items():
