@@ -267,7 +267,10 @@ class ArmDescription:
     too). ``standard_to_tool``: rows of the rotation from CRAM's standard gripper (z
     approaches the object, x from finger to finger) to the tool frame; grasps are written
     once for the standard gripper and combined with it. ``states``: named configurations,
-    one value per joint of ``joints`` (must include :data:`REQUIRED_ARM_STATES`)."""
+    one value per joint of ``joints`` (must include :data:`REQUIRED_ARM_STATES`).
+    ``ik_seeds``: optional joint configurations an IK solver starts from (after the arm's
+    current one), one value per joint each (the world that loads the robot checks their
+    lengths); empty: the solver uses the named states."""
 
     name: str
     joints: tuple[str, ...]
@@ -277,10 +280,13 @@ class ArmDescription:
     gripper: GripperDescription
     reach: Reach
     states: Mapping[str, tuple[float, ...]]
+    ik_seeds: tuple[tuple[float, ...], ...] = ()
 
     def __post_init__(self) -> None:
-        # invariant: joints a tuple, states a read-only mapping of float tuples
+        # invariant: joints a tuple, states a read-only mapping of float tuples, ik_seeds
+        # a tuple of float tuples
         object.__setattr__(self, "joints", tuple(self.joints))
+        object.__setattr__(self, "ik_seeds", tuple(tuple(map(float, s)) for s in self.ik_seeds))
         object.__setattr__(
             self,
             "states",

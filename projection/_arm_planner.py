@@ -26,7 +26,6 @@ import pybullet as pb
 
 from executive import Pose
 from executive.failures import ManipulationPoseUnreachable
-from executive.knowledge import ARM_JOINTS, ARM_PREFIX, tool_frame
 from projection._real_body import ARM_JOINT_VELOCITY, TORSO_VELOCITY, _joint_indices
 from projection._trajectories import along_timed
 from projection._world import World
@@ -101,7 +100,7 @@ def cartesian_path(
     lines = {}
     steps = 1
     for a in arms:
-        start = world.link_pose(tool_frame(a))
+        start = world.link_pose(world.robot.arm(a).tool_frame)
         goal: Pose = goals[a]
         if goal.frame == "base_footprint":
             goal = robot * goal
@@ -131,12 +130,11 @@ def _arm_blocked(world: World, arms: Sequence[str]) -> bool:
     """Whether a link of ``arms`` other than the gripper's (or an object they hold)
     touches a free object: the gripper may touch the object it reaches for."""
     free = {n for n in world.objects if n not in world.attachments}
-    prefixes = tuple(f"{ARM_PREFIX[a]}_" for a in arms)
+    links = frozenset().union(*(world.arm_links(a) - world.gripper_links(a) for a in arms))
     for c in world.robot_collisions():
         if c.body_b not in free:
             continue
-        link = c.link_a or ""
-        if link.startswith(prefixes) and "gripper" not in link:
+        if (c.link_a or "") in links:
             return True
     return False
 
@@ -182,7 +180,7 @@ def clear_ik(
     if not _arm_blocked(world, arms):
         return
     chosen = (world.torso_height, {a: world.arm_joints(a) for a in arms})
-    index = _joint_indices(world)["torso_lift_joint"]
+    index = _joint_indices(world)[world.robot.torso.joint]
     info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
     lo, hi = float(info[8]), float(info[9])
     heights = sorted(
@@ -281,7 +279,7 @@ def _lifted(world: World, arms: Sequence[str], config: ArmConfig, dz: float) -> 
     out: ArmConfig = {}
     for a in arms:
         world.move_joints(**{a: config[a]})
-        tool = world.link_pose(tool_frame(a))
+        tool = world.link_pose(world.robot.arm(a).tool_frame)
         up = Pose((tool.position[0], tool.position[1], tool.position[2] + dz), tool.orientation)
         try:
             world.move_tcp(**{a: up})
@@ -337,12 +335,13 @@ def _planner(world: World, arm: str) -> ArmMotionPlanner:
     if planner is None:
         from projection._motion_planner import ArmMotionPlanner
 
-        prefix = ARM_PREFIX[arm]
+        desc = world.robot.arm(arm)
+        gripper = world.gripper_links(arm)
         planner = ArmMotionPlanner.for_world(
             world,
-            [f"{prefix}_{j}" for j in ARM_JOINTS],
-            tool_frame(arm),
-            [n for n in world.link_names if n.startswith(f"{prefix}_gripper")],
+            list(desc.joints),
+            desc.tool_frame,
+            [n for n in world.link_names if n in gripper],
         )
         world._arm_planners[arm] = planner
     return planner
@@ -410,13 +409,20 @@ class _ArmRouter:
         return cls(world, arms, start, goal, at_start, at_goal)
 
     def raised(self, config: ArmConfig) -> ArmConfig:
-        """``config`` with each arm's shoulder lifted and elbow bent (the raised via)."""
-        lift = ARM_JOINTS.index("shoulder_lift_joint")
-        elbow = ARM_JOINTS.index("elbow_flex_joint")
+        """``config`` with each arm's shoulder lifted and elbow bent (the raised via): the
+        arm's 2nd joint (the shoulder lift) at :data:`RAISED_SHOULDER_LIFT` and its 4th
+        (the elbow) at :data:`RAISED_ELBOW_FLEX`, each clamped into its joint limits (an
+        arm of fewer than 4 joints keeps ``config``: no via). The router checks the via
+        for collisions like any other configuration."""
+        lift, elbow = 1, 3
         via: ArmConfig = {}
         for a in self.arms:
             q = list(config[a])
-            q[lift], q[elbow] = RAISED_SHOULDER_LIFT, RAISED_ELBOW_FLEX
+            limits = self.world.arm_joint_limits(a)
+            if len(q) > elbow:
+                for k, v in ((lift, RAISED_SHOULDER_LIFT), (elbow, RAISED_ELBOW_FLEX)):
+                    _name, lo, hi = limits[k]
+                    q[k] = min(max(v, lo), hi)
             via[a] = tuple(q)
         return via
 
@@ -442,7 +448,7 @@ class _ArmRouter:
         world, arms, goal = self.world, self.arms, self.goal
         torso = world.torso_height
         world.move_joints(**goal)
-        tools = {a: world.link_pose(tool_frame(a)) for a in arms}
+        tools = {a: world.link_pose(world.robot.arm(a).tool_frame) for a in arms}
         world.move_joints(**up)
         line = cartesian_path(world, arms, tools, (torso, up), (torso, goal))
         world.move_torso(torso)

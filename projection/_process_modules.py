@@ -27,7 +27,7 @@ arms           moving-tcp, moving-arm-joints                                ``mo
 =============  ===========================================================  ================
 
 Each module lists the robot parts it drives (:attr:`executive.ProcessModule.resources`:
-the base, the torso, the head, the grippers and the arms of :data:`executive.knowledge.ARMS`),
+the base, the torso, the head, the grippers and the arms of the world's robot),
 so the projection environment knows the robot's parts.
 
 Failures are the world's typed low-level failures (``NavigationPoseUnreachable``,
@@ -50,7 +50,6 @@ import executive
 from executive import Designator, MotionCommand, Pose, ProcessModule, Resource, an, equate
 from executive.events import ObjectPerceived, emit
 from executive.failures import ManipulationGoalNotReached, PtuGoalNotReached
-from executive.knowledge import ARMS
 from projection._durations import DETECTION_TIME, RobotState, motion_seconds, robot_state
 from projection._world import World
 
@@ -213,7 +212,7 @@ class PtuPM(ProjectionProcessModule):
         self._head: dict[str, tuple[int, float, float]] = {}
         for i in range(pb.getNumJoints(robot, physicsClientId=c)):
             info = pb.getJointInfo(robot, i, physicsClientId=c)
-            if info[1].decode() in ("head_pan_joint", "head_tilt_joint"):
+            if info[1].decode() in (world.robot.neck.pan_joint, world.robot.neck.tilt_joint):
                 self._head[info[1].decode()] = (i, float(info[8]), float(info[9]))
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
@@ -243,7 +242,8 @@ class PtuPM(ProjectionProcessModule):
             raise ValueError(f"looking joint-states must be (pan, tilt) in radians, got {states!r}")
         c, robot = self.world.client, self.world.robot_body
         goals = []
-        for joint, value in zip(("head_pan_joint", "head_tilt_joint"), states):
+        neck = self.world.robot.neck
+        for joint, value in zip((neck.pan_joint, neck.tilt_joint), states):
             i, lo, hi = self._head[joint]
             if not lo - _PTU_TOLERANCE <= value <= hi + _PTU_TOLERANCE:
                 raise PtuGoalNotReached(
@@ -288,7 +288,11 @@ class GripperMotions:
         {"opening-gripper", "closing-gripper", "gripping", "moving-gripper-joint"}
     )
     commands = frozenset({"move-gripper-joint"})
-    resources = frozenset(Resource.gripper(a) for a in ARMS)
+
+    @staticmethod
+    def gripper_resources(world: World) -> frozenset[Resource]:
+        """The grippers of ``world``'s robot (one per arm, in its description's order)."""
+        return frozenset(Resource.gripper(a) for a in world.robot.arm_names)
 
     def accepts(self, motion: Designator) -> bool:
         return motion.type in self.motion_types or (
@@ -305,6 +309,7 @@ class GrippersPM(GripperMotions, ProjectionProcessModule):
 
     def __init__(self, world: World) -> None:
         super().__init__(world, "grippers")
+        self.resources = self.gripper_resources(world)
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
         _action, goal, arms = gripper_goal(command)
@@ -319,11 +324,12 @@ class ArmsPM(ProjectionProcessModule):
     the arms are unchanged on failure."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
-    resources = frozenset(Resource.arm(a) for a in ARMS)
     commands = frozenset({"move-tcp", "move-joints"})
 
     def __init__(self, world: World) -> None:
         super().__init__(world, "arms")
+        # the robot's arms, in its description's order
+        self.resources = frozenset(Resource.arm(a) for a in world.robot.arm_names)
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
         args: Mapping[str, Any] = command.arguments

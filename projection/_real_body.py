@@ -29,7 +29,6 @@ import pybullet as pb
 
 import cpl
 from executive import Pose
-from executive.knowledge import ARM_PREFIX
 from projection._real_faults import FaultProfile
 from projection._world import World
 
@@ -109,10 +108,13 @@ class _Body:
         self.robot_links = [-1, *range(pb.getNumJoints(robot, physicsClientId=c))]
         links = _robot_links(true_world)
         self.gripper_links = {
-            arm: [i for n, i in links.items() if n.startswith(f"{p}_gripper")]
-            for arm, p in ARM_PREFIX.items()
+            arm: [i for n, i in links.items() if n in true_world.gripper_links(arm)]
+            for arm in true_world.arms
         }
-        self.head = {j: i for j, i in _joint_indices(true_world).items() if j.startswith("head_")}
+        neck = true_world.robot.neck
+        joints = _joint_indices(true_world)
+        # pan then tilt
+        self.head = {j: joints[j] for j in (neck.pan_joint, neck.tilt_joint)}
 
     # -- faults -------------------------------------------------------------------
     def fault(self, kind: str) -> float | None:

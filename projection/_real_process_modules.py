@@ -23,7 +23,6 @@ from executive.failures import (
     PerceptionObjectNotFound,
     PtuGoalNotReached,
 )
-from executive.knowledge import ARM_PREFIX, ARMS
 from projection._arm_planner import (
     along_configs,
     clear_ik,
@@ -316,6 +315,7 @@ class RealGrippersPM(GripperMotions, RealProcessModule):
 
     def __init__(self, body: _Body) -> None:
         super().__init__(body, "grippers")
+        self.resources = self.gripper_resources(body.true)
 
     async def run(self, command: MotionCommand, motion: Designator) -> None:
         world, body = self.world, self.body
@@ -361,17 +361,18 @@ class RealArmsPM(RealProcessModule):
     way; the motion then ends and raises :class:`executive.GripperClosedCompletely`."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
-    resources = frozenset(Resource.arm(a) for a in ARMS)
     commands = frozenset({"move-tcp", "move-joints"})
 
     def __init__(self, body: _Body) -> None:
         super().__init__(body, "arms")
+        # the robot's arms, in its description's order
+        self.resources = frozenset(Resource.arm(a) for a in body.true.robot.arm_names)
 
     async def run(self, command: MotionCommand, motion: Designator) -> None:
         world, body = self.world, self.body
         args: Mapping[str, Any] = command.arguments
         arms = [a for a in ("left", "right") if args.get(a) is not None]
-        start = {a: world.arm_joints(a) for a in ("left", "right")}
+        start = {a: world.arm_joints(a) for a in world.arms}
         torso = world.torso_height
         if command.command == "move-tcp":
             if body.fault("ik") is not None:
@@ -414,13 +415,13 @@ class RealArmsPM(RealProcessModule):
             )
 
     def _armed_drop(self, arms: Sequence[str]) -> tuple[str, str, float] | None:
-        links = _robot_links(self.world)
         for arm in arms:
             fraction = self.body.drops.get(arm)
             if fraction is None:
                 continue
+            links = self.world.arm_links(arm)
             for name, link in self.world.attachments.items():
-                if link in links and link.startswith(ARM_PREFIX[arm] + "_"):
+                if link in links:
                     del self.body.drops[arm]
                     return arm, name, fraction
         return None

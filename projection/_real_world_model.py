@@ -20,7 +20,6 @@ from executive.events import (
     RobotStateChanged,
     object_name,
 )
-from executive.knowledge import ARM_PREFIX
 from projection._real_body import _robot_links, sync_robot
 from projection._world import World
 from projection._world_model import DETACH_SETTLE_STEPS, ProjectedWorldModel
@@ -153,7 +152,7 @@ class RealWorldModel:
             self.belief.handle_event(event)
             name = object_name(event.object)
             if name in true.objects and self.holds(event.arm, name):
-                true.attach(name, event.link or f"{ARM_PREFIX[event.arm]}_wrist_roll_link")
+                true.attach(name, event.link or true.robot.arm(event.arm).hand_link)
         elif isinstance(event, ObjectDetached):
             self.belief.handle_event(event)
             name = object_name(event.object)
@@ -174,7 +173,7 @@ class RealWorldModel:
         return any(
             pb.getClosestPoints(world.robot_body, body, 1e-3, li, -1, physicsClientId=c)
             for n, li in self._links.items()
-            if n.startswith(f"{ARM_PREFIX[arm]}_gripper")
+            if n in world.gripper_links(arm)
         )
 
     def _perceived(self, designator: Any) -> None:

@@ -17,11 +17,8 @@ from typing import Any, Self
 import numpy as np
 import pybullet as pb
 
-from executive import knowledge
 from executive._pose import Pose
-from executive._robot import RobotDescription
-from executive.knowledge import ARM_PREFIX
-from projection import _urdf
+from executive._robot import ARM_NAMES, KinematicTree, RobotDescription, RobotDescriptionError
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
@@ -44,8 +41,11 @@ __all__ = [
 ]
 
 ASSETS = Path(__file__).resolve().parent / "assets"
-DEFAULT_TORSO = 0.15  #: torso height of a new world (m): camera at 1.42 m
+#: The PR2-like robot's torso height in a new world (m): camera at 1.42 m. A world uses
+#: its robot's ``torso.default``.
+DEFAULT_TORSO = 0.15
 FRAMES = ("map", "base_footprint")
+#: The PR2-like robot's body name; a world's robot is called ``world.robot.name``.
 ROBOT = "pr2"
 KITCHEN = "kitchen"
 #: How deep (m) a new object may reach into another object or the robot when spawned: more
@@ -107,9 +107,22 @@ class WorldBase:
             robot = pr2.DESCRIPTION
         if not isinstance(robot, RobotDescription):
             raise TypeError(f"World(robot=...) takes an executive.RobotDescription, got {robot!r}")
-        #: The description of the robot this world holds (issue 25: only the PR2-like
-        #: robot's body is built so far).
+        #: The description of the robot this world holds: its body, joints, links,
+        #: camera and initial state all come from it.
         self.robot: RobotDescription = robot
+        # the URDF is parsed and the description checked against it before anything is
+        # loaded: a misfit is a RobotDescriptionError naming the field, no client opened
+        urdf = robot.urdf()
+        robot.validate(KinematicTree.from_urdf(urdf))
+        for arm_desc in robot.arms:
+            for k, ik_seed in enumerate(arm_desc.ik_seeds):
+                if len(ik_seed) != len(arm_desc.joints):
+                    raise RobotDescriptionError(
+                        robot.name,
+                        f"arms[{arm_desc.name!r}].ik_seeds[{k}]",
+                        f"has {len(ik_seed)} values for {len(arm_desc.joints)} joints "
+                        f"({', '.join(arm_desc.joints)})",
+                    )
         self._c = -1
         self._side = -1
         if seed is not None and (
@@ -130,8 +143,14 @@ class WorldBase:
         self._kitchen: int = pb.loadURDF(
             str(ASSETS / "kitchen.urdf"), useFixedBase=True, physicsClientId=c
         )
-        self._robot: int = pb.loadURDF(
-            str(ASSETS / "pr2.urdf"), useFixedBase=True, physicsClientId=c
+        self._robot: int = pb.loadURDF(str(urdf), useFixedBase=True, physicsClientId=c)
+        # PyBullet poses a body by its base's inertial frame; None when that is the root
+        # link's own frame (then the base pose is set directly, as it always was)
+        dyn = pb.getDynamicsInfo(self._robot, -1, physicsClientId=c)
+        self._base_inertial: _Tf | None = (
+            None
+            if tuple(dyn[3]) == (0.0, 0.0, 0.0) and tuple(dyn[4]) == (0.0, 0.0, 0.0, 1.0)
+            else (tuple(dyn[3]), tuple(dyn[4]))
         )
         # The floor: a static plane at z = 0, so that what falls lands somewhere. It is not
         # part of the kitchen (costmaps treat kitchen links as obstacles); resting contact
@@ -172,38 +191,34 @@ class WorldBase:
             max(hi[1] for _, hi in boxes),
         )
         self._dofs = sorted(self._limits)  # movable robot joints, IK order
+        # invariant: the robot's arms in CRAM's name order (left before right; a one-armed
+        # robot has only "left"), every per-arm table below is keyed by exactly these
+        self._sides: tuple[str, ...] = tuple(a for a in ARM_NAMES if a in robot.arm_names)
         self._arm_joints = {
-            arm: [self._robot_joints[f"{p}_{j}"] for j in knowledge.ARM_JOINTS]
-            for arm, p in ARM_PREFIX.items()
+            a: [self._robot_joints[j] for j in robot.arm(a).joints] for a in self._sides
         }
         self._fingers = {
-            arm: [
-                self._robot_joints[f"{p}_gripper_l_finger_joint"],
-                self._robot_joints[f"{p}_gripper_r_finger_joint"],
-            ]
-            for arm, p in ARM_PREFIX.items()
+            a: [self._robot_joints[j] for j in robot.arm(a).gripper.joints] for a in self._sides
         }
-        self._tool = {
-            arm: self._links[f"{p}_gripper_tool_frame"][1] for arm, p in ARM_PREFIX.items()
-        }
-        self._shoulder = {
-            arm: self._links[f"{p}_shoulder_lift_link"][1] for arm, p in ARM_PREFIX.items()
-        }
+        self._tool = {a: self._links[robot.arm(a).tool_frame][1] for a in self._sides}
+        self._hand = {a: self._links[robot.arm(a).hand_link][1] for a in self._sides}
+        # the gripper: every link strictly below the arm's hand link (palm, fingers, tool)
         self._gripper_links = {
-            arm: [
+            a: [
                 i
                 for n, (b, i) in self._links.items()
-                if b == self._robot and n.startswith(f"{p}_gripper")
+                if b == self._robot and i != self._hand[a] and self._below(i, self._hand[a])
             ]
-            for arm, p in ARM_PREFIX.items()
+            for a in self._sides
         }
-        self._torso = self._robot_joints["torso_lift_joint"]
+        self._torso = self._robot_joints[robot.torso.joint]
+        self._torso_link = self._torso  # the torso joint's child link (same index)
         self._torso_slot = self._dofs.index(self._torso)
-        self._pan = self._robot_joints["head_pan_joint"]
-        self._tilt = self._robot_joints["head_tilt_joint"]
-        self._camera = self._links["head_mount_kinect_rgb_optical_frame"][1]
+        self._pan = self._robot_joints[robot.neck.pan_joint]
+        self._tilt = self._robot_joints[robot.neck.tilt_joint]
+        self._camera = self._links[robot.neck.camera.frame][1]
         self._objects: dict[str, _Obj] = {}
-        self._bodies: dict[int, str] = {self._robot: ROBOT, self._kitchen: KITCHEN}
+        self._bodies: dict[int, str] = {self._robot: robot.name, self._kitchen: KITCHEN}
         self._attached: dict[str, tuple[str, _Tf]] = {}
         self._base: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._closed = False
@@ -218,12 +233,57 @@ class WorldBase:
         # with the world
         self._arm_planners: dict[str, Any] = {}
         # initial state: one base reset (so the fixed robot is tested against the fixed
-        # kitchen from the start), arms parked, torso default, grippers open, head forward
+        # kitchen from the start), arms in the initial state (parked), torso default,
+        # grippers open, head forward
         self._reset_base(0.0, 0.0, 0.0)
-        self._set_joints([self._torso], [DEFAULT_TORSO])
-        for arm in ARM_PREFIX:
-            self._set_joints(self._arm_joints[arm], knowledge.arm_configuration("park", arm))
-            self._set_joints(self._fingers[arm], [_urdf.FINGER_MAX] * 2)
+        self._set_joints([self._torso], [robot.torso.default])
+        for arm in self._sides:
+            desc = robot.arm(arm)
+            self._set_joints(self._arm_joints[arm], desc.state(robot.initial_state))
+            self._set_joints(
+                self._fingers[arm], [desc.gripper.open_position] * len(desc.gripper.joints)
+            )
+        forward = robot.neck.states["forward"]
+        if forward != (0.0, 0.0):
+            self._set_joints([self._pan, self._tilt], forward)
+        #: the neck's rigid geometry for pointing the head: the pan joint in the torso
+        #: link, the tilt joint in the pan link and the camera in the tilt link (each a
+        #: joint origin, so whatever the pan and tilt; rounded to 1 nm)
+        self._neck: tuple[_Vec, _Vec, _Vec] = (
+            self._origin_in(self._pan, self._torso_link),
+            self._origin_in(self._tilt, self._pan),
+            self._origin_in(self._camera, self._tilt),
+        )
+
+    def arm_links(self, arm: str) -> frozenset[str]:
+        """Names of ``arm``'s links: its first joint's link and everything below it
+        (the PR2-like robot: the ``l_*``/``r_*`` links)."""
+        first = self._arm_joints[self._arm(arm)][0]
+        return frozenset(
+            n for n, (b, i) in self._links.items() if b == self._robot and self._below(i, first)
+        )
+
+    def gripper_links(self, arm: str) -> frozenset[str]:
+        """Names of ``arm``'s gripper links: every link strictly below its hand link (the
+        PR2-like robot: the ``?_gripper_*`` links)."""
+        return frozenset(
+            self._link_names[(self._robot, i)] for i in self._gripper_links[self._arm(arm)]
+        )
+
+    def _origin_in(self, link: int, frame: int) -> _Vec:
+        """The origin of robot link ``link`` in the frame of robot link ``frame``."""
+        fp, fq = self._link_tf(self._robot, frame)
+        ip, iq = pb.invertTransform(fp, fq)
+        p = pb.multiplyTransforms(ip, iq, self._link_tf(self._robot, link)[0], (0, 0, 0, 1))[0]
+        return (round(p[0], 6) + 0.0, round(p[1], 6) + 0.0, round(p[2], 6) + 0.0)
+
+    def _below(self, link: int, ancestor: int) -> bool:
+        """Whether robot link index ``link`` is ``ancestor`` or hangs below it."""
+        while link >= 0:
+            if link == ancestor:
+                return True
+            link = int(pb.getJointInfo(self._robot, link, physicsClientId=self._c)[16])
+        return ancestor == -1
 
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
@@ -274,10 +334,10 @@ class WorldBase:
         return self._kitchen
 
     def body_of(self, name: str) -> int:
-        """PyBullet body id of an object, ``"pr2"`` or ``"kitchen"``; unknown ->
-        :class:`LookupError`."""
+        """PyBullet body id of an object, the robot (``world.robot.name``, e.g. ``"pr2"``)
+        or ``"kitchen"``; unknown -> :class:`LookupError`."""
         self._check()
-        if name == ROBOT:
+        if name == self.robot.name:
             return self._robot
         if name == KITCHEN:
             return self._kitchen
@@ -324,6 +384,10 @@ class WorldBase:
         c = self._c
         if index < 0:
             pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+            if body == self._robot and self._base_inertial is not None:
+                pos, orn = pb.multiplyTransforms(
+                    pos, orn, *pb.invertTransform(*self._base_inertial)
+                )
             return tuple(pos), tuple(orn)
         s = pb.getLinkState(body, index, computeForwardKinematics=1, physicsClientId=c)
         return tuple(s[4]), tuple(s[5])
@@ -409,15 +473,15 @@ class WorldBase:
         return joint in self._robot_joints or joint in self._kitchen_joints
 
     def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
-        """``(joint, lower, upper)`` of the 7 arm joints (``knowledge.ARM_JOINTS`` order),
-        from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        """``(joint, lower, upper)`` of the arm's joints (its description's ``joints``
+        order), from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        names = self.robot.arm(self._arm(arm)).joints
         return tuple(
-            (f"{ARM_PREFIX[self._arm(arm)]}_{name}", *self._limits[i])
-            for name, i in zip(knowledge.ARM_JOINTS, self._arm_joints[self._arm(arm)])
+            (name, *self._limits[i]) for name, i in zip(names, self._arm_joints[self._arm(arm)])
         )
 
     def arm_joints(self, arm: str) -> tuple[float, ...]:
-        """The 7 arm joint values (``knowledge.ARM_JOINTS`` order)."""
+        """The arm's joint values (its description's ``joints`` order)."""
         self._check()
         return self._get_joints(self._arm_joints[self._arm(arm)])
 
@@ -427,9 +491,18 @@ class WorldBase:
         return self._get_joints([self._torso])[0]
 
     def gripper_opening(self, arm: str) -> float:
-        """Distance between the finger pads (m) = sum of both finger joints."""
+        """Distance between the finger pads (m), from the finger joints' mean value by the
+        arm's :class:`executive.GripperDescription` (the PR2-like robot: the sum of its
+        two finger joints)."""
         self._check()
-        return float(sum(self._get_joints(self._fingers[self._arm(arm)])))
+        g = self.robot.arm(self._arm(arm)).gripper
+        q = self._get_joints(self._fingers[self._arm(arm)])
+        if len(q) == 2 and g.closed_position == 0.0 and g.open_position * 2 == g.max_opening:
+            # two fingers, each opening half the width: the width is their sum exactly
+            return float(sum(q))
+        mean = sum(q) / len(q)
+        f = (mean - g.closed_position) / (g.open_position - g.closed_position)
+        return float(f * g.max_opening)
 
     # ------------------------------------------------------------------ registry
     def spawn_object(self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False) -> str:
@@ -440,9 +513,10 @@ class WorldBase:
         check, for probes and restores that check contacts themselves). The world is
         unchanged on error."""
         c = self._check()
-        if not isinstance(name, str) or not name or name in (ROBOT, KITCHEN):
+        if not isinstance(name, str) or not name or name in (self.robot.name, KITCHEN):
             raise ValueError(
-                f"object name must be a non-empty string other than pr2/kitchen, got {name!r}"
+                f"object name must be a non-empty string other than {self.robot.name}/kitchen, "
+                f"got {name!r}"
             )
         if name in self._objects:
             raise ValueError(f"an object called {name!r} already exists")
@@ -523,7 +597,7 @@ class WorldBase:
         :data:`SPAWN_OVERLAP` (the kitchen is not checked: objects stand on it)."""
         c = self._c
         found = []
-        others = [(ROBOT, self._robot)] + [(n, o.body) for n, o in self._objects.items()]
+        others = [(self.robot.name, self._robot)] + [(n, o.body) for n, o in self._objects.items()]
         for other_name, other in others:
             points = pb.getClosestPoints(body, other, 0.0, physicsClientId=c)
             if any(q[8] < -SPAWN_OVERLAP for q in points):
@@ -668,21 +742,27 @@ class WorldBase:
         )
 
     def _reset_base(self, x: float, y: float, yaw: float) -> None:
-        pb.resetBasePositionAndOrientation(
-            self._robot, (x, y, 0.0), _yaw_quat(yaw), physicsClientId=self._c
-        )
+        pos: Sequence[float] = (x, y, 0.0)
+        orn: Sequence[float] = _yaw_quat(yaw)
+        if self._base_inertial is not None:  # the root link's frame, not its inertial one
+            pos, orn = pb.multiplyTransforms(pos, orn, *self._base_inertial)
+        pb.resetBasePositionAndOrientation(self._robot, pos, orn, physicsClientId=self._c)
         self._base = (x, y, yaw)
 
-    @staticmethod
-    def _arm(arm: str) -> str:
-        if arm not in ARM_PREFIX:
-            raise ValueError(f"unknown arm {arm!r}; known arms: left, right")
+    @property
+    def arms(self) -> tuple[str, ...]:
+        """The robot's arm names, left before right (a one-armed robot: ``("left",)``)."""
+        return self._sides
+
+    def _arm(self, arm: str) -> str:
+        if arm not in self._sides:
+            raise ValueError(f"unknown arm {arm!r}; known arms: {', '.join(self._sides)}")
         return arm
 
     def _arms(self, arm: str | Sequence[str]) -> list[str]:
         arms = [arm] if isinstance(arm, str) else list(arm)
         if not arms:
-            raise ValueError("no arm given; known arms: left, right")
+            raise ValueError(f"no arm given; known arms: {', '.join(self._sides)}")
         return [self._arm(a) for a in arms]
 
     def __iter__(self) -> Iterator[str]:

@@ -5,6 +5,7 @@ resampling, a sound reach pre-check and a per-world LRU memo (see the design not
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -14,7 +15,6 @@ import pybullet as pb
 
 from executive._pose import Pose
 from executive.failures import ManipulationPoseUnreachable
-from executive.knowledge import ARM_PREFIX
 from projection import _urdf
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
@@ -33,25 +33,44 @@ IK_RESIDUAL = 1e-4
 #: iterations from the seeds tried; most calls that reach the cap fail the FK check anyway
 #: (100 iterations changed 4 of 3200 answers of a demo run and cost 40 % more IK time).
 IK_ITERATIONS = 40
-#: slack of the reach test (m): 1 cm FK tolerance + 0.1 rad x TOOL_X, rounded up
+#: slack of the reach test (m): 1 cm FK tolerance + 0.1 rad x the wrist's distance from
+#: the tool frame, rounded up; at least this much (the PR2-like robot's 0.18 m: 0.03)
 _REACH_MARGIN = 0.03
-_IK_SEEDS = (
-    (0.0, 0.5, 0.0, -1.2, 0.0, -0.6, 0.0),
-    (0.0, 0.2, 0.0, -1.6, 0.0, -1.2, 0.0),
-    (0.4, 0.8, 1.5, -1.5, 0.0, -0.8, 0.0),
-    (0.44, -0.32, 1.91, -2.07, 3.01, -1.55, 1.13),
-    (1.2, 0.3, 0.5, -1.0, -1.5, -1.0, 0.5),
-    (-0.3, 0.9, 2.5, -2.0, 1.0, -0.4, -1.0),
-    (0.8, -0.2, 3.0, -0.8, -2.0, -1.8, 2.0),
-)  # left-arm IK seeds after the current state; mirrored for the right arm
+#: lengths (m) below this are zero (joint origins that coincide); lengths are rounded
+#: to it (PyBullet FK is float32-exact) so that a URDF's 0.4 m reads 0.4, not 0.40000002
+_LENGTH_EPS = 1e-6
+#: the PR2-like robot's wrist in its tool frame (``_urdf.TOOL_X`` behind it)
+_PR2_WRIST_OFFSET: _Vec = (-_urdf.TOOL_X, 0.0, 0.0)
 
 
-def _wrist_point(pos: Sequence[float], orn: Sequence[float]) -> _Vec:
-    """The wrist (``?_wrist_flex_link`` origin): TOOL_X behind the tool along its x."""
+def _wrist_point(
+    pos: Sequence[float], orn: Sequence[float], offset: _Vec = _PR2_WRIST_OFFSET
+) -> _Vec:
+    """The wrist (the origin of the arm's last joint) of a tool frame at ``pos``/``orn``:
+    ``offset`` is where it lies in the tool frame (rigid; a world passes its arm's, read
+    by FK; the default is the PR2-like robot's)."""
     x, y, z, w = orn
-    ax = (1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w))
-    t = _urdf.TOOL_X
-    return (pos[0] - ax[0] * t, pos[1] - ax[1] * t, pos[2] - ax[2] * t)
+    c0 = (1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w))
+    c1 = (2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w))
+    c2 = (2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y))
+    a, b, c = offset
+    return (
+        pos[0] + c0[0] * a + c1[0] * b + c2[0] * c,
+        pos[1] + c0[1] * a + c1[1] * b + c2[1] * c,
+        pos[2] + c0[2] * a + c1[2] * b + c2[2] * c,
+    )
+
+
+def _rotate(q: Sequence[float], v: Sequence[float]) -> _Vec:
+    """``v`` turned by the unit quaternion ``q``."""
+    return _wrist_point((0.0, 0.0, 0.0), q, (v[0], v[1], v[2]))
+
+
+def _seeds(arm: Any) -> tuple[tuple[float, ...], ...]:
+    """An arm's IK seed library: its description's ``ik_seeds``, or, without any, its
+    named states (park, carry, ...) in the description's order."""
+    seeds = tuple(getattr(arm, "ik_seeds", ()))
+    return seeds if seeds else tuple(arm.states.values())
 
 
 def _into_limits(v: float, lo: float, hi: float) -> float:
@@ -75,8 +94,7 @@ class ArmIK(WorldBase):
             for k in slots:
                 damping[k] = 0.05
             self._ik_damping[arm] = damping
-        mirrored = tuple((-a, b, -r, e, -f, w, -x) for a, b, r, e, f, w, x in _IK_SEEDS)
-        self._ik_seeds = {"left": _IK_SEEDS, "right": mirrored}
+        self._ik_seeds = {a: _seeds(self.robot.arm(a)) for a in self._sides}
         #: tool-frame positions of the seeds in the torso frame (filled on first IK)
         self._seed_tools: dict[str, list[tuple[float, ...]]] = {}
         #: bound of the per-world IK memo (0 disables it); see :meth:`move_tcp`
@@ -86,7 +104,13 @@ class ArmIK(WorldBase):
         self._init_reach()
 
     def _init_reach(self) -> None:
-        """Arm reach geometry in base_footprint at torso height 0, read by FK."""
+        """Arm reach geometry in base_footprint at torso height 0, read by FK from the
+        robot as loaded (any chain): per arm, the first joint's axis point (the "pan
+        centre") and, when that axis is vertical, the radius of the circle the second
+        joint's origin runs on about it; the wrist (the origin of the last joint's link)
+        in the tool frame; the longest wrist distance from the chain's start (the sum of
+        the distances between consecutive joint origins) and, for an arm whose wrist
+        distance only one elbow joint changes (two segments), the shortest."""
         robot = self._robot
         h0 = self._get_joints([self._torso])[0]
         bp, bq = self._base_tf()
@@ -96,33 +120,103 @@ class ArmIK(WorldBase):
             p = self._link_tf(robot, index)[0]
             return tuple(pb.multiplyTransforms(ip, iq, p, (0, 0, 0, 1))[0])
 
-        tx, ty, tz = local(self._links["torso_lift_link"][1])
+        tx, ty, tz = local(self._torso_link)
         self._torso_xy = (tx, ty)
         self._torso_z0 = tz - h0
         self._pan_centre: dict[str, _Vec] = {}
         self._pan_radius: dict[str, float] = {}
-        for arm, p in ARM_PREFIX.items():
-            cx, cy, cz = local(self._links[f"{p}_shoulder_pan_link"][1])
-            sx, sy, _ = local(self._shoulder[arm])
+        self._wrist_offset: dict[str, _Vec] = {}
+        self._reach_max2: dict[str, float] = {}
+        self._reach_min2: dict[str, float] = {}
+        for arm in self._sides:
+            idx = self._arm_joints[arm]
+            points = [local(i) for i in idx]  # each joint's origin (its child link's)
+            cx, cy, cz = points[0]
             self._pan_centre[arm] = (cx, cy, cz - h0)
-            self._pan_radius[arm] = math.hypot(sx - cx, sy - cy) + 1e-4
-        a, b = _urdf.UPPER_ARM, _urdf.FOREARM
-        elbow = self._limits[self._arm_joints["left"][3]]
-        fold = max(abs(elbow[0]), abs(elbow[1]))
-        reach_min = math.sqrt(a * a + b * b + 2 * a * b * math.cos(fold)) if fold < math.pi else 0
-        margin = _REACH_MARGIN
-        self._reach_max2 = (a + b + margin) ** 2
-        self._reach_min2 = max(0.0, reach_min - margin) ** 2
+            if self._axis_vertical(idx[0]) and len(idx) > 1:
+                sx, sy, _ = points[1]
+                self._pan_radius[arm] = math.hypot(sx - cx, sy - cy) + 1e-4
+                start = 1
+            else:  # any axis: distances from the first joint's origin only
+                self._pan_radius[arm] = 1e-4
+                start = 0
+            tp, tq = self._link_tf(robot, self._tool[arm])
+            wp = self._link_tf(robot, idx[-1])[0]
+            tip, tiq = pb.invertTransform(tp, tq)
+            off = pb.multiplyTransforms(tip, tiq, wp, (0, 0, 0, 1))[0]
+            offset = tuple(round(v, 6) + 0.0 for v in off)
+            self._wrist_offset[arm] = (offset[0], offset[1], offset[2])
+            chain = points[start:]
+            lengths = [round(math.dist(p, q), 6) for p, q in itertools.pairwise(chain)]
+            margin = max(_REACH_MARGIN, 0.01 + 0.1 * math.hypot(*offset))
+            self._reach_max2[arm] = (sum(lengths) + margin) ** 2
+            reach_min = self._folded_reach(idx[start:], chain, lengths)
+            self._reach_min2[arm] = max(0.0, reach_min - margin) ** 2
+
+    def _joint_axis(self, index: int) -> _Vec:
+        """A robot joint's axis in map (unit), as the robot stands."""
+        axis = pb.getJointInfo(self._robot, index, physicsClientId=self._c)[13]
+        return _rotate(self._link_tf(self._robot, index)[1], axis)
+
+    def _axis_vertical(self, index: int) -> bool:
+        ax, ay, _ = self._joint_axis(index)
+        return math.hypot(ax, ay) < 1e-6
+
+    def _folded_reach(
+        self, joints: Sequence[int], points: Sequence[_Vec], lengths: Sequence[float]
+    ) -> float:
+        """The shortest wrist distance from ``points[0]`` an arm can fold to, or 0 when
+        that is not provable from the chain alone. Provable for two segments ``a``, ``b``
+        meeting at one elbow joint whose axis is perpendicular to both, straight at 0,
+        every other joint at the elbow turning about a segment: then the distance is
+        ``sqrt(a² + b² + 2ab cos q)``, smallest at the elbow limit farthest from 0."""
+        nonzero = [k for k, v in enumerate(lengths) if v > _LENGTH_EPS]
+        if len(nonzero) != 2:
+            return 0.0
+        a, b = lengths[nonzero[0]], lengths[nonzero[1]]
+        junction = points[nonzero[0] + 1]
+        u = [(q - p) / a for p, q in zip(points[nonzero[0]], junction)]
+        end = points[nonzero[1] + 1]
+        v = [(q - p) / b for p, q in zip(points[nonzero[1]], end)]
+        base_q = self._base_tf()[1]
+        inv = (-base_q[0], -base_q[1], -base_q[2], base_q[3])
+        elbow = None
+        for k, i in enumerate(joints):
+            if math.dist(points[k], junction) > 1e-6:
+                continue
+            axis = _rotate(inv, self._joint_axis(i))
+            du = abs(sum(x * y for x, y in zip(axis, u)))
+            dv = abs(sum(x * y for x, y in zip(axis, v)))
+            if du < 1e-6 and dv < 1e-6:
+                if elbow is not None:
+                    return 0.0
+                elbow = i
+            elif not (abs(du - 1.0) < 1e-6 or abs(dv - 1.0) < 1e-6):
+                return 0.0
+        if elbow is None:
+            return 0.0
+        # straight at 0 (the formula's zero): the angle between the segments is the elbow
+        # joint's value (read, not moved: moving joints here would change the broadphase)
+        (q_now,) = self._get_joints([elbow])
+        cos_uv = max(-1.0, min(1.0, sum(x * y for x, y in zip(u, v))))
+        if abs(math.acos(cos_uv) - abs(q_now)) > 1e-6:
+            return 0.0
+        lo, hi = self._limits[elbow]
+        fold = max(abs(lo), abs(hi))
+        return math.sqrt(a * a + b * b + 2 * a * b * math.cos(fold)) if fold < math.pi else 0
 
     def move_tcp(self, left: Pose | None = None, right: Pose | None = None) -> None:
-        """Move the tool frames (``?_gripper_tool_frame``) to the given poses (map or
-        base_footprint) by IK verified with FK (< 1 cm, < 0.1 rad), trying the current
+        """Move the arms' tool frames (their descriptions' ``tool_frame``) to the given
+        poses (map or base_footprint) by IK verified with FK (< 1 cm, < 0.1 rad), trying the current
         torso height first, then the other heights of the :data:`TORSO_STEP` grid from the
         upper limit down, skipping heights at which a goal's wrist is provably out of the
         arm's reach. With both arms, both must succeed at the same height. No collision
         check (as CRAM HEAD). Unreachable -> :class:`ManipulationPoseUnreachable`, robot
         unchanged. IK results are memoised per world (see :meth:`_solve_arm_cached`)."""
         self._check()
+        for arm, p in (("left", left), ("right", right)):
+            if p is not None:
+                self._arm(arm)
         goals = {
             arm: self._to_map(p) for arm, p in (("left", left), ("right", right)) if p is not None
         }
@@ -142,7 +236,7 @@ class ArmIK(WorldBase):
         # goals in base_footprint (the IK result depends only on the robot-relative
         # target, the torso height and the seed, never on the rest of the world)
         local = {arm: self._in_base(pos, orn) for arm, (pos, orn) in goals.items()}
-        wrists = {arm: _wrist_point(p, q) for arm, (p, q) in local.items()}
+        wrists = {arm: _wrist_point(p, q, self._wrist_offset[arm]) for arm, (p, q) in local.items()}
         for arm, wrist in wrists.items():
             if not all(map(math.isfinite, wrist)):
                 # a goal so far away (e.g. 1e300 m) that its transform overflowed: out of
@@ -191,7 +285,7 @@ class ArmIK(WorldBase):
 
     def _in_reach(self, arm: str, wrist: _Vec, height: float) -> bool:
         """False only when no arm configuration at torso ``height`` can put the wrist
-        (``?_wrist_flex_link``, :data:`_urdf.TOOL_X` behind the tool frame) within the FK
+        (the last arm joint's origin, rigid in the tool frame) within the FK
         tolerances of ``wrist`` (base_footprint): the shoulder-lift joint lies on a circle
         of radius ``r`` about the shoulder-pan axis whatever the pan angle, and the wrist is
         between the folded (elbow at its limit) and the stretched arm length from it.
@@ -206,7 +300,7 @@ class ArmIK(WorldBase):
         # OverflowError escaping every plan's failure handling
         near = math.hypot(rxy - r, dz)
         far = math.hypot(rxy + r, dz)
-        return near * near <= self._reach_max2 and far * far >= self._reach_min2
+        return near * near <= self._reach_max2[arm] and far * far >= self._reach_min2[arm]
 
     def _solve_arm_cached(
         self,
@@ -284,7 +378,7 @@ class ArmIK(WorldBase):
         library = self._seed_tools.get(arm)
         indices = self._arm_joints[arm]
         tool = self._tool[arm]
-        torso = self._links["torso_lift_link"]
+        torso = (self._robot, self._torso_link)
         if library is None:
             library = []
             for seed in self._ik_seeds[arm]:

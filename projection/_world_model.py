@@ -30,7 +30,6 @@ from executive.failures import (
     ManipulationGoalInCollision,
     PerceptionObjectNotInWorld,
 )
-from executive.knowledge import ARM_PREFIX
 from projection._arm_planner import controller_path, swept_objects, touched_objects
 from projection._objects import object_type as _object_type
 from projection._world import KITCHEN, Contact, World
@@ -48,10 +47,10 @@ SWEEP_MEMO_SIZE = 4096
 OVERLAP_TOLERANCE = 0.005
 
 
-def _arm(arm: Any) -> str:
-    if arm not in ARM_PREFIX:
-        raise ValueError(f"unknown arm {arm!r}; known arms: left, right")
-    return str(arm)
+def _arm(world: World, arm: Any) -> str:
+    if not isinstance(arm, str) or arm not in world.arms:
+        raise ValueError(f"unknown arm {arm!r}; known arms: {', '.join(world.arms)}")
+    return arm
 
 
 def _pose(pose: Any, what: str) -> Pose:
@@ -67,7 +66,8 @@ class ProjectedWorldModel:
     containers :class:`LookupError`; a wrong arm :class:`ValueError`. Events:
 
     - ``ObjectAttached``: the object is attached rigidly to ``event.link`` or, by default,
-      to the arm's ``?_wrist_roll_link`` (CRAM's end-effector link), replacing any
+      to the arm's ``hand_link`` (CRAM's end-effector link; the PR2-like robot's
+      ``?_wrist_roll_link``), replacing any
       attachment to the kitchen (the spoon in the drawer);
     - ``ObjectDetached``: released, then settles for :data:`DETACH_SETTLE_STEPS` steps; an
       object the robot does not hold is left alone;
@@ -125,10 +125,11 @@ class ProjectedWorldModel:
         return self.world.objects[self._known(name)]
 
     def object_in_hand(self, arm: str) -> str | None:
-        """The first object attached to a link of ``arm`` (``l_*``/``r_*``), or None."""
-        prefix = ARM_PREFIX[_arm(arm)] + "_"
+        """The first object attached to a link of ``arm`` (:meth:`World.arm_links`), or
+        None."""
+        links = self.world.arm_links(_arm(self.world, arm))
         for name, link in self.world.attachments.items():
-            if link in self._robot_links and link.startswith(prefix):
+            if link in links:
                 return name
         return None
 
@@ -162,7 +163,7 @@ class ProjectedWorldModel:
     def gripper_opening(self, arm: str) -> float | None:
         """The distance (m) between the finger pads of ``arm``'s gripper (the robot's
         finger joints; a real robot's belief has them from its joint states)."""
-        return self.world.gripper_opening(_arm(arm))
+        return self.world.gripper_opening(_arm(self.world, arm))
 
     def link_aabb(self, link: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """A robot or kitchen link's axis-aligned bounding box in map, ``(min, max)``;
@@ -184,11 +185,11 @@ class ProjectedWorldModel:
         world = self.world
         if isinstance(event, ObjectAttached):
             name = self._known(object_name(event.object))
-            link = event.link or f"{ARM_PREFIX[_arm(event.arm)]}_wrist_roll_link"
+            link = event.link or world.robot.arm(_arm(world, event.arm)).hand_link
             world.attach(name, link)
         elif isinstance(event, ObjectDetached):
             name = self._known(object_name(event.object))
-            _arm(event.arm)
+            _arm(world, event.arm)
             if world.attachments.get(name) in self._robot_links:
                 world.detach(name, settle_steps=DETACH_SETTLE_STEPS)
         elif isinstance(event, ContainerOpened):
@@ -253,7 +254,7 @@ class ProjectedWorldModel:
         them wherever its controller took it; the simulated real arm follows that path
         and topples what it sweeps through. The world is restored. Bad arguments raise
         TypeError/ValueError."""
-        arm = _arm(arm)
+        arm = _arm(self.world, arm)
         wps = [_pose(p, f"waypoint {i}") for i, p in enumerate(waypoints)]
         if robot_pose is not None:
             _pose(robot_pose, "robot_pose")
@@ -375,7 +376,7 @@ class ProjectedWorldModel:
         LookupError; a wrong arm: ValueError. Deliberate addition: CRAM checked only the
         opening arm's waypoints, and a drawer pulled open into the other forearm wedged
         the true robot there (no base motion was collision-free any more)."""
-        gripper = f"{ARM_PREFIX[_arm(arm)]}_gripper"
+        gripper = self.world.gripper_links(_arm(self.world, arm))
         name = self._container(container)
         world = self.world
         snap = world.snapshot()
@@ -417,9 +418,8 @@ class ProjectedWorldModel:
             arm,
             _rounded(torso, *start[arm], goal_torso, *goal[arm]),
             _rounded(
-                *world.arm_joints("left" if arm == "right" else "right"),
-                world.gripper_opening("left"),
-                world.gripper_opening("right"),
+                *(v for a in world.arms if a != arm for v in world.arm_joints(a)),
+                *(world.gripper_opening(a) for a in world.arms),
             ),
             _rounded(*waypoint.position, *waypoint.orientation),
             waypoint.frame,
@@ -526,14 +526,15 @@ def _rounded(*values: float) -> tuple[float, ...]:
     return tuple(round(float(v), 4) for v in values)
 
 
-def _kitchen_contacts(world: World, except_prefix: str | None = None) -> set[tuple[str, str]]:
-    """(robot link, kitchen link) pairs in contact now, but for robot links named
-    ``except_prefix...``."""
+def _kitchen_contacts(
+    world: World, except_links: frozenset[str] = frozenset()
+) -> set[tuple[str, str]]:
+    """(robot link, kitchen link) pairs in contact now, but for robot links in
+    ``except_links``."""
     return {
         (c.link_a or "", c.link_b or "")
         for c in world.robot_collisions()
-        if c.body_b == KITCHEN
-        and not (except_prefix is not None and (c.link_a or "").startswith(except_prefix))
+        if c.body_b == KITCHEN and (c.link_a or "") not in except_links
     }
 
 

@@ -8,7 +8,6 @@ from collections.abc import Sequence
 
 import pybullet as pb
 
-from executive import knowledge
 from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable, TorsoGoalNotReached
 from projection._geometry import finite as _finite
@@ -56,7 +55,8 @@ class BodyMotions(Collisions):
 
     # ------------------------------------------------------------------ torso, arms
     def move_torso(self, height: float) -> None:
-        """Set ``torso_lift_joint``. A goal outside [0, 0.33] by more than 1e-4 ->
+        """Set the torso joint (the PR2-like robot's ``torso_lift_joint``). A goal outside
+        its limits (the PR2-like robot: [0, 0.33]) by more than 1e-4 ->
         :class:`TorsoGoalNotReached` (``torso=height``), world unchanged."""
         self._check()
         (h,) = _finite([height], "torso height")
@@ -70,21 +70,23 @@ class BodyMotions(Collisions):
     def move_joints(
         self, left: Sequence[float] | None = None, right: Sequence[float] | None = None
     ) -> None:
-        """Set the 7 arm joints of the given sides. Wrong length, non-finite values or
-        values outside the joint limits -> ValueError naming them; world unchanged."""
+        """Set the arm joints (each arm's description's ``joints``, in order) of the given
+        sides. An arm the robot lacks, wrong length, non-finite values or values outside
+        the joint limits -> ValueError naming them; world unchanged."""
         self._check()
         goals: list[tuple[list[int], tuple[float, ...]]] = []
         for arm, values in (("left", left), ("right", right)):
             if values is None:
                 continue
+            names = self.robot.arm(self._arm(arm)).joints
             vals = _finite(values, f"{arm} arm joints")
-            if len(vals) != 7:
+            if len(vals) != len(names):
                 raise ValueError(
-                    f"{arm} arm needs 7 joint values "
-                    f"({', '.join(knowledge.ARM_JOINTS)}), got {len(vals)}"
+                    f"{arm} arm needs {len(names)} joint values "
+                    f"({', '.join(names)}), got {len(vals)}"
                 )
             indices = self._arm_joints[arm]
-            for i, v, jname in zip(indices, vals, knowledge.ARM_JOINTS):
+            for i, v, jname in zip(indices, vals, names):
                 lo, hi = self._limits[i]
                 if not lo - 1e-6 <= v <= hi + 1e-6:
                     raise ValueError(f"{arm} {jname} = {v:.4f} outside [{lo}, {hi}]")
@@ -93,15 +95,14 @@ class BodyMotions(Collisions):
             self._set_joints(indices, vals)
         self._update_attached(self._robot)
 
-    def set_arm_configuration(
-        self, name: str, arms: str | Sequence[str] = ("left", "right")
-    ) -> None:
-        """Put arms into a named configuration ("park", "carry"); unknown -> LookupError."""
+    def set_arm_configuration(self, name: str, arms: str | Sequence[str] | None = None) -> None:
+        """Put arms (default: all the robot has) into a named configuration of their
+        descriptions ("park", "carry"); unknown -> LookupError."""
         self._check()
-        chosen = self._arms(arms)
-        values = {a: knowledge.arm_configuration(name, a) for a in chosen}
+        chosen = self._arms(self._sides if arms is None else arms)
+        values = {a: self.robot.arm(a).state(name) for a in chosen}
         self.move_joints(values.get("left"), values.get("right"))
 
     def park_arms(self, configuration: str = "park") -> None:
-        """Both arms to ``configuration`` (CRAM's park-arms; CRAM defaults to carrying)."""
+        """Every arm to ``configuration`` (CRAM's park-arms; CRAM defaults to carrying)."""
         self.set_arm_configuration(configuration)

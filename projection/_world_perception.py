@@ -13,11 +13,12 @@ import pybullet as pb
 
 from executive._pose import Pose, Transform
 from executive.failures import PerceptionObjectNotFound, PtuGoalNotReached, PtuGoalUnreachable
-from projection import _urdf
 from projection._world_base import WorldBase
 
 __all__ = ["PerceivedObject", "Perception"]
 
+#: The PR2-like robot's camera (CRAM's 50 degrees at 320x200); a world uses its robot's
+#: ``neck.camera`` (``robots.pr2`` agrees with these, tested).
 _CAMERA_FOV_Y = math.radians(50.0)
 _CAMERA_ASPECT = 320.0 / 200.0
 _CAMERA_NEAR, _CAMERA_FAR = 0.1, 10.0
@@ -69,18 +70,19 @@ class Perception(WorldBase):
         self._set_joints([self._pan, self._tilt], [pan, tilt])
 
     def _ptu_angles(self, point: Sequence[float]) -> tuple[float, float]:
-        tp, tq = self._link_tf(*self._links["torso_lift_link"])
+        tp, tq = self._link_tf(self._robot, self._torso_link)
         ip, iq = pb.invertTransform(tp, tq)
         p_t = np.asarray(pb.multiplyTransforms(ip, iq, point, (0, 0, 0, 1))[0])
-        d = p_t - np.asarray(_urdf.HEAD_PAN_XYZ)
+        pan_xyz, tilt_xyz, camera_xyz = self._neck
+        d = p_t - np.asarray(pan_xyz)
         pan = math.atan2(d[1], d[0])
         if math.hypot(d[0], d[1]) < 1e-9:
             pan = 0.0
         # target in the pan frame, relative to the tilt axis
         cp, sp = math.cos(pan), math.sin(pan)
         q = np.array([cp * d[0] + sp * d[1], -sp * d[0] + cp * d[1], d[2]])
-        q -= np.asarray(_urdf.HEAD_TILT_XYZ)
-        cx, _, cz = _urdf.CAMERA_XYZ
+        q -= np.asarray(tilt_xyz)
+        cx, _, cz = camera_xyz
         tilt = 0.0
         for _ in range(4):  # the camera sits off the tilt axis: fixed-point iteration
             ct, st = math.cos(tilt), math.sin(tilt)
@@ -92,9 +94,10 @@ class Perception(WorldBase):
     # ------------------------------------------------------------------ perception
     def detect(self, designator: Any, threshold: float = 0.9) -> list[PerceivedObject]:
         """Objects with exactly the designator's ``type`` (and ``name`` if given) that
-        the camera sees: rays from ``head_mount_kinect_rgb_optical_frame`` to a 3x3x3
-        grid in the object's AABB; a ray that first hits the object is a visible sample
-        only inside CRAM's 50° x 73° (320x200) frustum; a ray that hits something else
+        the camera sees: rays from the robot's camera frame (its description's
+        ``neck.camera.frame``) to a 3x3x3 grid in the object's AABB; a ray that first hits
+        the object is a visible sample only inside the camera's field of view (the
+        PR2-like robot: CRAM's 50° x 73°, 320x200); a ray that hits something else
         before reaching the grid point is an occluded sample; visible when visible /
         (visible + occluded + out-of-view object samples) >= ``threshold``. Nothing
         visible -> :class:`PerceptionObjectNotFound` (``object=designator``)."""
@@ -152,12 +155,15 @@ class Perception(WorldBase):
         rot = np.array(pb.getMatrixFromQuaternion(cam_q)).reshape(3, 3)
         local = rel @ rot  # camera coordinates: z forward, x right, y down
         z = local[:, 2]
-        tan_y = math.tan(_CAMERA_FOV_Y / 2)
+        camera = self.robot.neck.camera
+        tan_y = math.tan(camera.vertical_fov / 2)
+        # the aspect ratio rounded: an aspect given as 2 atan(1.6 tan(v/2)) is 1.6 exactly
+        aspect = round(math.tan(camera.horizontal_fov / 2) / tan_y, 12)
         with np.errstate(divide="ignore", invalid="ignore"):
             in_view = (
                 (z > _CAMERA_NEAR)
                 & (z < _CAMERA_FAR)
-                & (np.abs(local[:, 0] / z) <= tan_y * _CAMERA_ASPECT)
+                & (np.abs(local[:, 0] / z) <= tan_y * aspect)
                 & (np.abs(local[:, 1] / z) <= tan_y)
             )
         starts = np.repeat(origin[None, :], len(pts), axis=0)

@@ -61,6 +61,23 @@ _STATES = {
 }
 
 
+#: The left arm's IK seeds (tried after the arm's current joints, nearest first); the
+#: right arm's are mirrored (the joints that turn about a vertical or roll axis negated).
+_LEFT_IK_SEEDS = (
+    (0.0, 0.5, 0.0, -1.2, 0.0, -0.6, 0.0),
+    (0.0, 0.2, 0.0, -1.6, 0.0, -1.2, 0.0),
+    (0.4, 0.8, 1.5, -1.5, 0.0, -0.8, 0.0),
+    (0.44, -0.32, 1.91, -2.07, 3.01, -1.55, 1.13),
+    (1.2, 0.3, 0.5, -1.0, -1.5, -1.0, 0.5),
+    (-0.3, 0.9, 2.5, -2.0, 1.0, -0.4, -1.0),
+    (0.8, -0.2, 3.0, -0.8, -2.0, -1.8, 2.0),
+)
+_IK_SEEDS = {
+    "left": _LEFT_IK_SEEDS,
+    "right": tuple((-a, b, -r, e, -f, w, -x) for a, b, r, e, f, w, x in _LEFT_IK_SEEDS),
+}
+
+
 def _urdf() -> Path:
     return URDF
 
@@ -82,6 +99,7 @@ def _arm(name: str) -> ArmDescription:
         ),
         reach=Reach(in_reach_distance=0.7, minimal_distance=0.2),
         states={state: values[name] for state, values in _STATES.items()},
+        ik_seeds=_IK_SEEDS[name],
     )
 
 
