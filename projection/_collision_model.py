@@ -35,7 +35,6 @@ from typing import Self
 import numpy as np
 import pybullet as pb
 
-from executive.knowledge import ARM_CONFIGURATIONS, ARM_JOINTS, ARM_PREFIX, arm_configuration
 from projection._geometry import Tf
 from projection._names import UnknownName
 from projection._objects import object_type
@@ -253,15 +252,19 @@ class CollisionModel:
 
     @classmethod
     def from_world(cls, world: World, padding: float = PADDING) -> CollisionModel:
+        robot = world.robot
+        # the named configurations every arm defines (park, carry, ...), all arms in each
+        first = robot.arm(world.arms[0])
+        names = [n for n in first.states if all(n in robot.arm(a).states for a in world.arms)]
         known_good = [
             {
-                f"{prefix}_{j}": v
-                for arm, prefix in ARM_PREFIX.items()
-                for j, v in zip(ARM_JOINTS, arm_configuration(name, arm))
+                j: v
+                for arm in world.arms
+                for j, v in zip(robot.arm(arm).joints, robot.arm(arm).state(name))
             }
-            for name in ARM_CONFIGURATIONS
+            for name in names
         ]
-        model = cls(ASSETS / "pr2.urdf", [ASSETS / "kitchen.urdf"], padding, known_good)
+        model = cls(robot.urdf(), [ASSETS / "kitchen.urdf"], padding, known_good)
         try:
             model.sync(world)
         except BaseException:

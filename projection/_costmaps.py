@@ -87,7 +87,9 @@ VISIBILITY_SIZE: Final = 2.0  #: visibility-costmap-size (range of visible-for, 
 ORIENTATION_SAMPLES: Final = 2  #: orientation-samples (2 -> exactly one yaw)
 ORIENTATION_SAMPLE_STEP: Final = 0.1  #: orientation-sample-step
 POSE_MINVAR: Final = 0.5  #: 2d-pose-covariance minvar of reachable-for / visible-for
-CAMERA_HEIGHTS: Final = (1.27, 1.38, 1.49, 1.60)  #: PR2 camera heights cast from (m)
+#: The PR2-like robot's camera heights cast from (m); a world's robot has its own
+#: (``World.camera_heights``)
+CAMERA_HEIGHTS: Final = (1.27, 1.38, 1.49, 1.60)
 BOARD_THICKNESS: Final = 0.035  #: ``in`` height above the container's bottom
 #: The kitchen's links (their AABBs make the free-space factor).
 KITCHEN_LINKS: Final = tuple(_urdf.KITCHEN_BOXES)
@@ -499,22 +501,29 @@ def add_demo_area(
     cm.add("demo-restricted-area", f, 5, bounds=bounds)
 
 
-def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[float, float]:
+def add_reachable_for(
+    cm: Costmap,
+    points: Sequence[Sequence[float]],
+    in_reach: float = IN_REACH_DISTANCE,
+    minimal: float = REACH_MINIMAL_DISTANCE,
+) -> tuple[float, float]:
     """``reachable-for``: a Gaussian (2d-pose-covariance, minvar 0.5, score 5) over the
-    reach points, per point a 0.7 m include and a 0.2 m exclude disc, orientation facing
-    the mean, height 0. Returns the mean (the validator's reach point)."""
+    reach points, per point an ``in_reach`` include and a ``minimal`` exclude disc (the
+    robot's arms' :class:`executive.Reach`; the PR2-like robot's 0.7 m and 0.2 m by
+    default), orientation facing the mean, height 0. Returns the mean (the validator's
+    reach point)."""
     mu, cov = pose_covariance(points, POSE_MINVAR)
     cm.add("pose-distribution", gaussian(mu, cov), 5)
     for p in points:
         cm.add(
             cm.unique_name("reach-range"),
-            _range_fn(p[0], p[1], IN_REACH_DISTANCE, False),
+            _range_fn(p[0], p[1], in_reach, False),
             7,
-            bounds=_disc(p[0], p[1], IN_REACH_DISTANCE),
+            bounds=_disc(p[0], p[1], in_reach),
         )
         cm.add(
             cm.unique_name("reach-minimal-range"),
-            _range_fn(p[0], p[1], REACH_MINIMAL_DISTANCE, True),
+            _range_fn(p[0], p[1], minimal, True),
             6,
         )
     cm.add_orientation(facing(*mu))
@@ -522,13 +531,25 @@ def add_reachable_for(cm: Costmap, points: Sequence[Sequence[float]]) -> tuple[f
     return mu
 
 
-#: The shoulders in ``base_footprint`` (x, |y|): torso x + shoulder y of the robot URDF.
+#: The PR2-like robot's shoulders in ``base_footprint`` (x, |y|): torso x + shoulder y of
+#: its URDF. A world's robot has its own (``World.shoulder_xy``).
 SHOULDER_XY: Final = (_urdf.TORSO_XYZ[0], _urdf.SHOULDER_Y)
+#: The PR2-like robot's shoulders by arm (the default of the drawer costmaps)
+_PR2_SHOULDERS: Final = MappingProxyType(
+    {"left": SHOULDER_XY, "right": (SHOULDER_XY[0], -SHOULDER_XY[1])}
+)
 
 
-def drawer_shoulder(x: float, y: float, yaw: float, arm: str) -> tuple[float, float]:
-    """The ``arm``'s shoulder point (map xy) of a base at (x, y, yaw)."""
-    sx, sy = SHOULDER_XY[0], SHOULDER_XY[1] if arm == "left" else -SHOULDER_XY[1]
+def drawer_shoulder(
+    x: float,
+    y: float,
+    yaw: float,
+    arm: str,
+    shoulders: Mapping[str, tuple[float, float]] = _PR2_SHOULDERS,
+) -> tuple[float, float]:
+    """The ``arm``'s shoulder point (map xy) of a base at (x, y, yaw); ``shoulders``: each
+    arm's shoulder in ``base_footprint`` (default: the PR2-like robot's)."""
+    sx, sy = shoulders[arm]
     c, s = math.cos(yaw), math.sin(yaw)
     return x + c * sx - s * sy, y + s * sx + c * sy
 
@@ -540,6 +561,10 @@ def add_reachable_in_drawer(
     drawer_hi: Sequence[float],
     outward: tuple[float, float],
     arm: str | None,
+    *,
+    shoulders: Mapping[str, tuple[float, float]] = _PR2_SHOULDERS,
+    in_reach: float = IN_REACH_DISTANCE,
+    minimal: float = REACH_MINIMAL_DISTANCE,
 ) -> float:
     """``reachable-for`` a point inside an open drawer (after CRAM's ``pr2-em`` drawer
     costmaps, which choose the robot's side of the drawer by arm and orient the base
@@ -554,7 +579,9 @@ def add_reachable_in_drawer(
     ``drawer-reach`` / ``drawer-reach-minimal`` (scores 7 / 6): the reach point within
     0.7 m (beyond 0.2 m) of that arm's *shoulder* (the base orientation is fixed, so the
     shoulder is a constant offset). Orientation: facing the cabinet along the drawer axis
-    (``-outward``); height 0. Returns the base yaw."""
+    (``-outward``); height 0. ``shoulders``: the robot's arms (all of them) and their
+    shoulders in ``base_footprint``; ``in_reach``/``minimal``: the arms' reach (defaults:
+    the PR2-like robot's). Returns the base yaw."""
     ox, oy = outward
     yaw = math.atan2(-oy, -ox)
     fx, fy = math.cos(yaw), math.sin(yaw)
@@ -563,7 +590,7 @@ def add_reachable_in_drawer(
     left_lo = min(lx * a + ly * b for a, b in corners)
     left_hi = max(lx * a + ly * b for a, b in corners)
     px, py = float(point[0]), float(point[1])
-    sides = ("left", "right") if arm is None else (arm,)
+    sides = tuple(shoulders) if arm is None else (arm,)
     mu, cov = pose_covariance([point], POSE_MINVAR)
     cm.add("pose-distribution", gaussian(mu, cov), 5)
 
@@ -580,22 +607,22 @@ def add_reachable_in_drawer(
     def shoulder_distance(x: Array, y: Array) -> Array:
         best = np.full(x.shape, np.inf)
         for side in sides:
-            sx, sy = drawer_shoulder(0.0, 0.0, yaw, side)
+            sx, sy = drawer_shoulder(0.0, 0.0, yaw, side, shoulders)
             d = np.hypot(px - (x + sx), py - (y + sy))
             best = np.where(side_mask(x, y, side), np.minimum(best, d), best)
         return best
 
     def reach(x: Array, y: Array) -> Array:
-        return (shoulder_distance(x, y) <= IN_REACH_DISTANCE).astype(float)
+        return (shoulder_distance(x, y) <= in_reach).astype(float)
 
-    def minimal(x: Array, y: Array) -> Array:
+    def beyond_minimal(x: Array, y: Array) -> Array:
         d = shoulder_distance(x, y)
-        inside: Array = (d >= REACH_MINIMAL_DISTANCE) & np.isfinite(d)
+        inside: Array = (d >= minimal) & np.isfinite(d)
         return inside.astype(float)
 
     cm.add("drawer-side", beside, 6)
     cm.add("drawer-reach", reach, 7)
-    cm.add("drawer-reach-minimal", minimal, 6)
+    cm.add("drawer-reach-minimal", beyond_minimal, 6)
     cm.add_orientation(lambda _x, _y: [yaw])
     cm.add_height(constant_height(0.0))
     return yaw

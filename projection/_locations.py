@@ -54,7 +54,7 @@ from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable
 from projection import _costmaps as cm
 from projection._objects import OBJECT_TYPES
-from projection._world import KITCHEN, ROBOT, World
+from projection._world import KITCHEN, World
 
 __all__ = [
     "COSTMAP_KEYS",
@@ -215,6 +215,9 @@ class _Plan:
     #: the reach distance is measured from (None: the usual facing / base-origin check).
     drawer_yaw: float | None = None
     drawer_arms: tuple[str, ...] = ()
+    #: reachable-for: (minimal, in-reach) distance of the robot's arm(s), from their
+    #: descriptions' :class:`executive.Reach`
+    reach: tuple[float, float] = (cm.REACH_MINIMAL_DISTANCE, cm.IN_REACH_DISTANCE)
 
 
 @dataclass(frozen=True)
@@ -350,21 +353,25 @@ class LocationCostmaps:
         d measured from the reaching arm's shoulder, yaw within 0.1 rad of the drawer
         axis."""
         plan = self._plan(d) if "reachable-for" in d else None
+        lo, hi = plan.reach if plan is not None else (0.0, 0.0)
         if plan is not None and plan.drawer_yaw is not None:
             assert plan.target is not None
             p = self._map_pose(pose)
             yaw = _yaw_of(p.orientation)
             if _angle_diff(yaw, plan.drawer_yaw) > _YAW_TOLERANCE:
                 return "reject"
+            shoulders = self._shoulders()
             for arm in plan.drawer_arms:
-                sx, sy = cm.drawer_shoulder(p.position[0], p.position[1], yaw, arm)
+                sx, sy = cm.drawer_shoulder(p.position[0], p.position[1], yaw, arm, shoulders)
                 dist = math.hypot(plan.target[0] - sx, plan.target[1] - sy)
-                if cm.REACH_MINIMAL_DISTANCE < dist < cm.IN_REACH_DISTANCE:
+                if lo < dist < hi:
                     return "accept"
             return "reject"
-        return self._distance_and_yaw(
-            d, pose, "reachable-for", cm.REACH_MINIMAL_DISTANCE, cm.IN_REACH_DISTANCE
-        )
+        return self._distance_and_yaw(d, pose, "reachable-for", lo, hi)
+
+    def _shoulders(self) -> dict[str, tuple[float, float]]:
+        """The robot's arms' shoulders in ``base_footprint`` (left before right)."""
+        return {a: self.world.shoulder_xy(a) for a in self.world.arms}
 
     def validate_visible(self, d: Designator, pose: Pose) -> str:
         """visible-location: d < 2 m to the target, yaw within 0.1 rad."""
@@ -400,7 +407,9 @@ class LocationCostmaps:
                 world.spawn_object(name, plan.for_type, p, allow_overlap=True)
             else:
                 world.set_object_pose(name, p, allow_overlap=True)
-            hits = [c for c in world.contacts(name) if c.body_b not in (ROBOT, KITCHEN, name)]
+            hits = [
+                c for c in world.contacts(name) if c.body_b not in (world.robot.name, KITCHEN, name)
+            ]
         finally:
             world.restore(snap)
         return "reject" if hits else "unknown"
@@ -469,23 +478,37 @@ class LocationCostmaps:
             robot = d[robot_key]
             if not isinstance(robot, str) or not robot:
                 raise self._error(
-                    d, f"({robot_key} ...) takes a robot name such as {ROBOT!r}, got {robot!r}"
+                    d,
+                    f"({robot_key} ...) takes a robot name such as {world.robot.name!r}, "
+                    f"got {robot!r}",
                 )
             arm = d.get("arm")
-            if arm is not None and arm not in ("left", "right"):
-                raise self._error(d, f"unknown arm {arm!r}; known arms: left, right")
+            if arm is not None and arm not in world.arms:
+                raise self._error(d, f"unknown arm {arm!r}; known arms: {', '.join(world.arms)}")
+            plan.reach = world.reach(arm)
+            minimal, in_reach = plan.reach
             target, exclude = self._target(d, robot_key)
             plan.robot_key = robot_key
             plan.target = (target[0], target[1])
             drawer = self._open_drawer_at(target) if robot_key == "reachable-for" else None
             if drawer is not None:
                 lo, hi, outward = drawer
-                plan.drawer_yaw = cm.add_reachable_in_drawer(costmap, target, lo, hi, outward, arm)
-                plan.drawer_arms = (arm,) if arm is not None else ("left", "right")
+                plan.drawer_yaw = cm.add_reachable_in_drawer(
+                    costmap,
+                    target,
+                    lo,
+                    hi,
+                    outward,
+                    arm,
+                    shoulders=self._shoulders(),
+                    in_reach=in_reach,
+                    minimal=minimal,
+                )
+                plan.drawer_arms = (arm,) if arm is not None else world.arms
             elif robot_key == "reachable-for":
-                cm.add_reachable_for(costmap, [target])
+                cm.add_reachable_for(costmap, [target], in_reach, minimal)
                 if "experience" in d:
-                    self._learned(d, costmap, target)
+                    self._learned(d, costmap, target, in_reach)
             else:
                 bodies = {world.robot_body}
                 bodies |= {
@@ -495,7 +518,9 @@ class LocationCostmaps:
                 }
                 if exclude is not None:
                     bodies.add(world.body_of(exclude))
-                cm.add_visible_for(costmap, world.client, target, frozenset(bodies))
+                cm.add_visible_for(
+                    costmap, world.client, target, frozenset(bodies), world.camera_heights()
+                )
             boxes = [world.link_aabb(link) for link in cm.KITCHEN_LINKS]
             cm.add_free_space(costmap, [((lo[0], lo[1]), (hi[0], hi[1])) for lo, hi in boxes])
             if self.demo_areas is not None:
@@ -507,7 +532,13 @@ class LocationCostmaps:
         self._relations(d, costmap, for_type, for_size)
         return plan
 
-    def _learned(self, d: Designator, costmap: cm.Costmap, target: Sequence[float]) -> None:
+    def _learned(
+        self,
+        d: Designator,
+        costmap: cm.Costmap,
+        target: Sequence[float],
+        in_reach: float = cm.IN_REACH_DISTANCE,
+    ) -> None:
         """``(experience (action type))``: the environment's learned base density, in the
         target's frame (its yaw: the target pose's), facing the target as
         ``reachable-for`` does, floored at :data:`LEARNED_FLOOR` (it reweights, it never
@@ -550,10 +581,10 @@ class LocationCostmaps:
             f,
             4,
             bounds=(
-                tx - cm.IN_REACH_DISTANCE,
-                tx + cm.IN_REACH_DISTANCE,
-                ty - cm.IN_REACH_DISTANCE,
-                ty + cm.IN_REACH_DISTANCE,
+                tx - in_reach,
+                tx + in_reach,
+                ty - in_reach,
+                ty + in_reach,
             ),
         )
 

@@ -32,7 +32,7 @@ from executive import (
 from executive._robot import RobotDescription
 from projection._objects import object_type
 from projection._real_body import settle
-from projection._world import ROBOT, World
+from projection._world import World
 
 __all__ = [
     "DEFAULT_SPAWN_REGION",
@@ -255,7 +255,9 @@ def _spawn_one(world: World, object_type: str, random: bool, rng: np.random.Gene
     if name in world.objects:
         world.remove_object(name)
     if random:
-        sample = _reachable_sample(spawn_region(object_type), _spawn_filter(world, object_type))
+        sample = _reachable_sample(
+            spawn_region(object_type), _spawn_filter(world, object_type), world.robot.name
+        )
         _spawn_at_free_yaw(world, name, object_type, sample, rng)
     else:
         world.spawn_object(name, object_type, kitchen.DEMO_POSES[object_type])
@@ -277,7 +279,9 @@ def _spawn_filter(world: World, object_type: str) -> Callable[[Pose], bool]:
     return lambda pose: pose.position[0] - opening <= front - SPOON_CLEARANCE
 
 
-def _reachable_sample(location: LocationDesignator, accept: Callable[[Pose], bool]) -> Pose:
+def _reachable_sample(
+    location: LocationDesignator, accept: Callable[[Pose], bool], robot: str
+) -> Pose:
     """The first sample of ``location`` that ``accept`` takes and a robot location
     ``(reachable-for <robot>)`` resolves for (deliberate: CRAM's spawning region reaches
     0.65 m deep into the counter, beyond the arm's reach from any collision-free base
@@ -288,7 +292,7 @@ def _reachable_sample(location: LocationDesignator, accept: Callable[[Pose], boo
     for _ in range(REACH_TRIES):
         sample = current.reference()
         if accept(sample):
-            reach = a.location(reachable_for=ROBOT, location=a.location(pose=sample))
+            reach = a.location(reachable_for=robot, location=a.location(pose=sample))
             try:
                 reach.reference()
                 return sample

@@ -246,6 +246,7 @@ class WorldBase:
         forward = robot.neck.states["forward"]
         if forward != (0.0, 0.0):
             self._set_joints([self._pan, self._tilt], forward)
+        self._init_reach_facts()
         #: the neck's rigid geometry for pointing the head: the pan joint in the torso
         #: link, the tilt joint in the pan link and the camera in the tilt link (each a
         #: joint origin, so whatever the pan and tilt; rounded to 1 nm)
@@ -253,6 +254,43 @@ class WorldBase:
             self._origin_in(self._pan, self._torso_link),
             self._origin_in(self._tilt, self._pan),
             self._origin_in(self._camera, self._tilt),
+        )
+
+    def _init_reach_facts(self) -> None:
+        """What the location costmaps need of the robot, read by FK from the new world
+        (base at the origin, torso at its default, head forward)."""
+        robot = self.robot
+        # invariant: arm -> its first joint's origin (xy, base_footprint; rounded to 1 µm):
+        # the shoulder the drawer costmaps measure the reach from
+        self._shoulder_xy: dict[str, tuple[float, float]] = {}
+        for a in self._sides:
+            p = self._link_tf(self._robot, self._arm_joints[a][0])[0]
+            self._shoulder_xy[a] = (round(p[0], 6) + 0.0, round(p[1], 6) + 0.0)
+        lo = self._limits[self._torso][0]
+        z = self._link_tf(self._robot, self._camera)[0][2]
+        #: the camera's height over the floor at the lowest torso (head forward)
+        self._camera_z0 = z - (robot.torso.default - lo)
+
+    def shoulder_xy(self, arm: str) -> tuple[float, float]:
+        """``arm``'s shoulder (its first joint's axis point) in ``base_footprint`` xy (the
+        PR2-like robot: (-0.05, ±0.188))."""
+        return self._shoulder_xy[self._arm(arm)]
+
+    def camera_heights(self, count: int = 4) -> tuple[float, ...]:
+        """``count`` camera heights (m, to the cm) over the torso's range, lowest first:
+        where ``visible-for`` casts its rays from (the PR2-like robot: 1.27 .. 1.60)."""
+        lo, hi = self._limits[self._torso]
+        step = (hi - lo) / max(1, count - 1)
+        return tuple(round(self._camera_z0 + step * k, 2) for k in range(count))
+
+    def reach(self, arm: str | None = None) -> tuple[float, float]:
+        """``(minimal_distance, in_reach_distance)`` of ``arm``'s :class:`executive.Reach`,
+        or without an arm the widest over the robot's arms."""
+        arms = self._sides if arm is None else (self._arm(arm),)
+        reaches = [self.robot.arm(a).reach for a in arms]
+        return (
+            min(r.minimal_distance for r in reaches),
+            max(r.in_reach_distance for r in reaches),
         )
 
     def arm_links(self, arm: str) -> frozenset[str]:

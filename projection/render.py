@@ -34,8 +34,7 @@ OVERVIEW_CAMERA: tuple[tuple[float, float, float], tuple[float, float, float]] =
     (-1.6, -1.3, 3.0),
     (0.9, 0.3, 0.6),
 )
-_ROBOT_CAMERA_LINK = "head_mount_kinect_rgb_optical_frame"
-_ROBOT_FOV = 50.0  # CRAM's camera: 50° vertical field of view
+_ROBOT_FOV = 50.0  # CRAM's camera: 50° vertical field of view (the PR2-like robot's)
 _OVERVIEW_FOV = 60.0
 _NEAR, _FAR = 0.1, 20.0
 
@@ -60,11 +59,13 @@ def _view(
         eye, target = OVERVIEW_CAMERA
         return eye, target, (0.0, 0.0, 1.0), _OVERVIEW_FOV
     if camera == "robot":
-        pose = world.link_pose(_ROBOT_CAMERA_LINK)
+        # the robot's camera (its description's optical frame and vertical field of view)
+        pose = world.link_pose(world.robot.neck.camera.frame)
         rot = pose.as_rotation().as_matrix()
         position = np.asarray(pose.position)
         forward, down = rot[:, 2], rot[:, 1]  # optical frame: z forward, y down
-        return tuple(position), tuple(position + forward), tuple(-down), _ROBOT_FOV
+        fov = round(math.degrees(world.robot.neck.camera.vertical_fov), 9)
+        return tuple(position), tuple(position + forward), tuple(-down), fov
     if isinstance(camera, str):
         raise ValueError(f"unknown camera {camera!r}; use 'overview', 'robot' or (eye, target)")
     if not isinstance(camera, (tuple, list)) or len(camera) != 2:

@@ -257,3 +257,58 @@ def test_a_pick_through_the_projection_process_modules(mrun: Any, world: World) 
     carried = world.object_pose("cup-1", "base_footprint").position
     # held over the front of the base, lifted off the counter
     assert carried[2] > 1.0 and abs(carried[1]) < 0.1
+
+
+# ------------------------------------------------------------------ costmaps
+def _resolve(world: World, fn: Any) -> Any:
+    """Call ``fn`` inside an environment with the costmap rules of ``world``."""
+    import asyncio
+
+    import executive
+    from projection._locations import location_rules
+
+    async def main() -> Any:
+        async with executive.environment(rules=location_rules(world)):
+            return fn()
+
+    return asyncio.run(main())
+
+
+def test_reachable_for_uses_the_pandas_reach_and_its_poses_reach_the_cup(world: World) -> None:
+    world.spawn_object("cup-1", "cup", Pose(CUP))
+    d = a.location(reachable_for="panda", location=a.location(pose=Pose(CUP)))
+
+    def samples() -> list[Pose]:
+        out, cur = [], d
+        for _ in range(12):
+            out.append(cur.reference())
+            nxt = cur.next_solution()
+            assert nxt is not None
+            cur = nxt
+        return out
+
+    poses = _resolve(world, samples)
+    dists = [math.dist(p.position[:2], CUP[:2]) for p in poses]
+    assert all(0.2 < r < 0.8 for r in dists)
+    assert max(dists) > 0.7  # beyond the PR2-like robot's 0.7 m: the Panda's 0.8 m
+    reached = 0
+    for p in poses:
+        world.park_arms()
+        world.drive(p)  # collision-free (else NavigationPoseUnreachable)
+        facing = math.atan2(CUP[1] - p.position[1], CUP[0] - p.position[0])
+        # the back grasp, the hand's z along the facing direction
+        q = pb.getQuaternionFromEuler((0.0, math.pi / 2, facing))
+        try:
+            world.move_tcp(left=Pose(CUP, tuple(q)))
+        except Exception:
+            continue
+        reached += 1
+    assert reached == len(poses)
+
+
+def test_visible_for_casts_from_the_pandas_camera_heights(world: World) -> None:
+    assert world.camera_heights() == (1.2, 1.33, 1.47, 1.6)  # its torso: 0 .. 0.40 m
+    assert world.shoulder_xy("left") == (0.12, 0.0)  # the arm on the base's axis
+    d = a.location(visible_for="panda", location=a.location(pose=Pose(CUP)))
+    pose = _resolve(world, d.reference)
+    assert math.dist(pose.position[:2], CUP[:2]) < 2.0
