@@ -1,5 +1,14 @@
-"""The projection world: one PyBullet client with the PR2-like robot, the kitchen and the
+"""The projection world: one PyBullet client with a robot (by default the PR2-like robot;
+any :class:`executive.RobotDescription` via ``World(robot=...)``), the kitchen and the
 household objects, and CRAM's low-level projection functions (``urdf-proj``) as methods.
+
+Everything robot-specific comes from the world's description (``world.robot``): the body
+(its ``urdf()``, validated against it before loading), the arms (any number of joints,
+one or two arms: a one-armed robot has only ``left``), tool frames, hand links (where held
+objects hang), grippers (opening <-> finger joints by the :class:`GripperDescription`;
+the gripper links are those below the hand link), torso, neck and camera (frame and field
+of view), the initial state, the IK seeds and the arms' reach. The IK's reach geometry
+and the head's pan/tilt geometry are read from the loaded body by forward kinematics.
 
 Design decisions (measured, see ``bench/projection_ops.py``):
 
@@ -17,14 +26,15 @@ Design decisions (measured, see ``bench/projection_ops.py``):
   (``rayTestBatch``); a render (``getCameraImage``) at CRAM's 320x200 costs more than the
   whole 20 ms budget twice over.
 - IK is PyBullet's ``calculateInverseKinematics`` on the tool frame with huge damping on
-  every non-arm joint (so only the arm's 7 joints move), several seeds, FK verification,
+  every non-arm joint (so only the arm's joints move), several seeds, FK verification,
   and CRAM's torso resampling (the 0.05 m grid, current height first, then from the upper
   limit down). Two fast paths that never change an answer: a sound reach pre-check (the
-  wrist must lie in the annulus the arm can span around the circle of shoulder-lift
-  positions, with the FK tolerance as margin) skips heights before any IK call, and a
-  per-world LRU memo keyed by (arm, goal in the torso frame, seed joints) replays earlier
-  solutions, each re-verified by FK. Measured: ordering the heights by distance from the
-  current one cost more on the demo grasps than CRAM's order, so CRAM's order stays.
+  wrist, the last arm joint's origin, must lie in the annulus the arm can span around
+  the circle of its second joint's positions, with the FK tolerance as margin) skips
+  heights before any IK call, and a per-world LRU memo keyed by (arm, goal in the torso
+  frame, seed joints) replays earlier solutions, each re-verified by FK. Measured:
+  ordering the heights by distance from the current one cost more on the demo grasps
+  than CRAM's order, so CRAM's order stays.
 
 Every failing method leaves the world as it was unless its docstring says otherwise.
 Poses are :class:`executive._pose.Pose` in ``map`` or ``base_footprint``.
@@ -62,10 +72,14 @@ __all__ = [
 class World(Perception, Grippers, ArmIK, Containers, Snapshots, Stability, BodyMotions):
     """A PyBullet projection world (see the module docstring).
 
-    ``World(seed=None, gui=False)``; ``close()`` is idempotent and the world is a context
-    manager; any use after ``close()`` raises :class:`RuntimeError`. A new world has the
-    robot at the map origin, both arms parked, the torso at :data:`DEFAULT_TORSO`, the
-    head looking forward, grippers open and the drawer closed. ``rng`` is a seeded
+    ``World(seed=None, gui=False, *, robot=None)``; ``robot``: an
+    :class:`executive.RobotDescription` (default ``robots.pr2.DESCRIPTION``); one that
+    does not fit its URDF raises :class:`executive.RobotDescriptionError` before anything
+    is loaded. ``close()`` is idempotent and the world is a context manager; any use after
+    ``close()`` raises :class:`RuntimeError`. A new world has the robot at the map
+    origin, every arm in the description's ``initial_state`` (parked), the torso at its
+    ``torso.default`` (the PR2-like robot's: :data:`DEFAULT_TORSO`), the head forward,
+    grippers open and the drawer closed. ``rng`` is a seeded
     :class:`numpy.random.Generator`.
 
     Each concept is a mixin in its own module: the client, names, frames, registry and

@@ -312,3 +312,63 @@ def test_visible_for_casts_from_the_pandas_camera_heights(world: World) -> None:
     d = a.location(visible_for="panda", location=a.location(pose=Pose(CUP)))
     pose = _resolve(world, d.reference)
     assert math.dist(pose.position[:2], CUP[:2]) < 2.0
+
+
+# ------------------------------------------------------------------ IK reach pre-check
+def test_the_reach_precheck_read_from_the_chain_is_sound(world: World) -> None:
+    """Heights the pre-check skips are heights the solver cannot reach either; and it
+    skips some (the bound is read from the Panda's chain, not the PR2-like robot's)."""
+    from projection._world_ik import _wrist_point
+
+    offset = world._wrist_offset["left"]
+    assert offset == pytest.approx((0.0, 0.0, -0.212))  # panda_link7 behind the tool
+    rng = np.random.default_rng(3)
+    saved = world._get_joints(world._dofs)
+    rejected = 0
+    for _ in range(120):
+        pos_b = tuple(float(v) for v in rng.uniform((-0.3, -1.2, 0.0), (1.3, 1.2, 2.2)))
+        yaw, pitch = rng.uniform(-math.pi, math.pi), rng.uniform(-1.5, 1.5)
+        orn_b = tuple(pb.getQuaternionFromEuler((0.0, pitch, yaw)))
+        h = float(rng.choice([0.0, 0.2, 0.4]))
+        local = world._in_base(*world._to_map(Pose(pos_b, orn_b, "base_footprint")))
+        if world._in_reach("left", _wrist_point(*local, offset), h):
+            continue
+        rejected += 1
+        world._set_joints([world._torso], [h])
+        pos, orn = world._to_map(Pose(pos_b, orn_b, "base_footprint"))
+        assert world._solve_arm("left", pos, orn, saved) is None, (pos_b, orn_b, h)
+    world._set_joints(world._dofs, saved)
+    assert rejected > 20
+
+
+# ------------------------------------------------------------------ the simulated real robot
+def test_the_simulated_real_panda_picks_the_cup() -> None:
+    import cpl
+    from cpl.testing import MockClock
+    from projection import FaultProfile, make_world_pair, with_real_robot
+
+    true, belief = make_world_pair(0, objects={"cup-1": ("cup", Pose(CUP))}, robot=PANDA)
+    assert true.robot is PANDA and belief.robot is PANDA
+
+    async def main() -> None:
+        async with with_real_robot(true, belief, FaultProfile.none(), rules=None):
+            await perform(a.motion(type="going", pose=SINK_NAV))
+            await perform(a.motion(type="looking", pose=Pose(CUP)))
+            cup = await perform(a.motion(type="detecting", object=an.object(type="cup")))
+            await perform(a.motion(type="opening-gripper", gripper="left"))
+            for x in (1.2, CUP[0]):
+                await perform(a.motion(type="moving-tcp", left_pose=Pose((x, 0.6, 0.9), BACK)))
+            await perform(a.motion(type="gripping", gripper="left"))
+            emit(ObjectAttached(cup, "left"))
+            lift = Pose((1.3, 0.6, 1.05), BACK)
+            await perform(a.motion(type="moving-tcp", left_pose=lift))
+
+    try:
+        cpl.run(main, clock=MockClock())
+        assert true.attachments == {"cup-1": ARM.hand_link}
+        assert belief.attachments == {"cup-1": ARM.hand_link}
+        assert true.object_pose("cup-1").position[2] > CUP[2] + 0.1  # lifted
+        assert true.robot_pose().position == pytest.approx(SINK_NAV.position, abs=1e-6)
+    finally:
+        true.close()
+        belief.close()
