@@ -540,7 +540,7 @@ class WorldBase:
             return float(sum(q))
         mean = sum(q) / len(q)
         f = (mean - g.closed_position) / (g.open_position - g.closed_position)
-        return float(f * g.max_opening)
+        return float(f * g.max_opening) + 0.0  # closed: 0.0, not -0.0
 
     # ------------------------------------------------------------------ registry
     def spawn_object(self, name: str, type: str, pose: Pose, *, allow_overlap: bool = False) -> str:
