@@ -162,6 +162,7 @@ class WorldBase:
         self._kitchen_joints: dict[str, int] = {}
         self._robot_joints: dict[str, int] = {}
         self._limits: dict[int, tuple[float, float]] = {}
+        self._parent_link: dict[int, int] = {}  # robot link index -> its parent's (-1: base)
         pairs = ((self._robot, self._robot_joints), (self._kitchen, self._kitchen_joints))
         for body, joints in pairs:
             base_name = pb.getBodyInfo(body, physicsClientId=c)[0].decode()
@@ -169,6 +170,8 @@ class WorldBase:
             for i in range(pb.getNumJoints(body, physicsClientId=c)):
                 info = pb.getJointInfo(body, i, physicsClientId=c)
                 self._links[info[12].decode()] = (body, i)
+                if body == self._robot:
+                    self._parent_link[i] = int(info[16])
                 if info[2] != pb.JOINT_FIXED:
                     joints[info[1].decode()] = i
                     if body == self._robot:
@@ -320,7 +323,7 @@ class WorldBase:
         while link >= 0:
             if link == ancestor:
                 return True
-            link = int(pb.getJointInfo(self._robot, link, physicsClientId=self._c)[16])
+            link = self._parent_link[link]
         return ancestor == -1
 
     # ------------------------------------------------------------------ lifecycle
