@@ -305,7 +305,8 @@ class GrippersPM(GripperMotions, ProjectionProcessModule):
     ``opening``/``closing`` that carry a ``gripper``) -> :meth:`World.gripper`. The joint
     angle of ``moving-gripper-joint`` is the opening in metres. Raises
     :class:`executive.GripperClosedCompletely` when gripping nothing (the gripper stays
-    closed), :class:`executive.GripperGoalNotReached` for an opening outside [0, 0.1]."""
+    closed), :class:`executive.GripperGoalNotReached` for an opening outside
+    [0, max_opening] of the arm's gripper (the PR2-like robot: 0.1 m)."""
 
     def __init__(self, world: World) -> None:
         super().__init__(world, "grippers")

@@ -311,7 +311,8 @@ class RealGrippersPM(GripperMotions, RealProcessModule):
     types). ``gripping`` closes until contact; nothing between the fingers, or a
     ``grasp_slip`` fault, raises :class:`executive.GripperClosedCompletely` with nothing
     held; a ``drop`` fault arms a drop for the arm's next motion. An opening outside
-    [0, 0.1] raises :class:`executive.GripperGoalNotReached` before moving."""
+    [0, max_opening] (the arm's gripper; the PR2-like robot: 0.1 m) raises
+    :class:`executive.GripperGoalNotReached` before moving."""
 
     def __init__(self, body: _Body) -> None:
         super().__init__(body, "grippers")

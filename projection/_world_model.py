@@ -157,7 +157,7 @@ class ProjectedWorldModel:
         self.world.remove_object(name)
 
     def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
-        """``(joint, lower, upper)`` of ``arm``'s 7 joints (see ``World``)."""
+        """``(joint, lower, upper)`` of ``arm``'s joints (see ``World``)."""
         return self.world.arm_joint_limits(arm)
 
     def gripper_opening(self, arm: str) -> float | None:
@@ -307,8 +307,8 @@ class ProjectedWorldModel:
         *,
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
-        """Would moving the arms to these joint values (``left``/``right``, 7 each; None:
-        that arm stays) sweep the robot or what it holds through a free object (other
+        """Would moving the arms to these joint values (``left``/``right``, one value per
+        arm joint each; None: that arm stays) sweep the robot or what it holds through a free object (other
         than ``allowed_contacts`` and those it touches where the motion starts or ends)?
         The path is the real controller's for a configuration move
         (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
