@@ -308,8 +308,9 @@ class ProjectedWorldModel:
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
         """Would moving the arms to these joint values (``left``/``right``, one value per
-        arm joint each; None: that arm stays) sweep the robot or what it holds through a free object (other
-        than ``allowed_contacts`` and those it touches where the motion starts or ends)?
+        arm joint each; None: that arm stays) sweep the robot or what it holds through a
+        free object (other than ``allowed_contacts`` and those it touches where the
+        motion starts or ends)?
         The path is the real controller's for a configuration move
         (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
         around free objects where it can be), in this world. The failure is
