@@ -5,6 +5,7 @@ description; nothing may assume a ``right`` arm."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -372,3 +373,36 @@ def test_the_simulated_real_panda_picks_the_cup() -> None:
     finally:
         true.close()
         belief.close()
+
+
+# ------------------------------------------------------------------ motion planning
+def test_a_planned_arm_motion_around_a_box_the_straight_line_sweeps() -> None:
+    """The arm planner's chain, touch links and collision model come from the description
+    (the Panda's 7 joints, its fingers, its URDF with self-collision)."""
+    from projection._arm_planner import _planner
+    from projection._objects import object_type
+
+    with World(seed=0, robot=PANDA) as world:
+        world.drive(Pose.from_xyz_yaw(0.6, 0.6, 0.0, 0.0))
+        world.spawn_object("cup-1", "cup", Pose(CUP))
+        h = object_type("breakfast-cereal").size[2]
+        world.spawn_object("cereal-9", "breakfast-cereal", Pose((1.2, 0.75, 0.85 + h / 2 + 1e-3)))
+        start = world.arm_joints("left")
+        world.move_tcp(left=Pose((1.2, 0.6, 0.9), BACK))
+        goal = world.arm_joints("left")
+        world.move_joints(left=start)
+        planner = _planner(world, "left")  # closed with the world
+        assert planner.chain.joints == ARM.joints
+        a_, b_ = np.asarray(start), np.asarray(goal)
+        hits = set()
+        for f in np.linspace(0.0, 1.0, 101):
+            hits |= set(planner.collisions(a_ + f * (b_ - a_)))
+        assert ("panda_hand", "cereal-9") in hits  # the straight line sweeps the box
+        t = planner.plan(start, goal, seed=3)
+        assert t.planned
+        assert tuple(t.positions[0]) == start and tuple(t.positions[-1]) == goal
+        p = t.positions
+        for u, v in itertools.pairwise(p):
+            k = max(1, int(np.ceil(np.linalg.norm(v - u) / 0.01)))
+            for j in range(k + 1):
+                assert planner.collisions(u + (j / k) * (v - u)) == []
