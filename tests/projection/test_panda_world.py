@@ -406,3 +406,34 @@ def test_a_planned_arm_motion_around_a_box_the_straight_line_sweeps() -> None:
             k = max(1, int(np.ceil(np.linalg.norm(v - u) / 0.01)))
             for j in range(k + 1):
                 assert planner.collisions(u + (j / k) * (v - u)) == []
+
+
+# ------------------------------------------------------------------ the base's inertial frame
+def test_a_root_link_with_an_offset_inertial_frame_is_posed_by_its_link_frame(
+    tmp_path: Any,
+) -> None:
+    """PyBullet poses a body by its base's inertial frame: a robot whose root link has
+    its inertial origin off the link frame still stands with ``base_footprint`` on the
+    floor where it is driven, and its links where the same robot's are without it."""
+    import dataclasses
+
+    text = panda.urdf_text().replace(
+        '<link name="base_footprint">\n    <inertial>\n',
+        '<link name="base_footprint">\n    <inertial>\n'
+        '      <origin xyz="0.1 -0.05 0.2" rpy="0 0 0.3" />\n',
+        1,
+    )
+    assert 'xyz="0.1 -0.05 0.2"' in text
+    path = tmp_path / "panda_offset.urdf"
+    path.write_text(text)
+    offset = dataclasses.replace(PANDA, urdf=lambda: path)
+    goal = Pose.from_xyz_yaw(0.3, 0.4, 0.0, 0.7)
+    with World(seed=0, robot=offset) as w, World(seed=0, robot=PANDA) as ref:
+        assert w._base_inertial is not None and ref._base_inertial is None
+        for world in (w, ref):
+            world.drive(goal)
+        assert w.robot_pose().position == pytest.approx((0.3, 0.4, 0.0))
+        assert w.link_pose("base_footprint").position == pytest.approx((0.3, 0.4, 0.0), abs=1e-6)
+        for link in ("base_link", "panda_grasptarget", PANDA.neck.camera.frame):
+            assert w.link_pose(link).distance_to(ref.link_pose(link)) < 1e-6, link
+        assert w.robot_collisions() == []
