@@ -214,6 +214,19 @@ class WorldBase:
             ]
             for a in self._sides
         }
+        # the same by name, and each arm's links (its first joint's link and below)
+        self._gripper_link_names = {
+            a: frozenset(self._link_names[(self._robot, i)] for i in self._gripper_links[a])
+            for a in self._sides
+        }
+        self._arm_link_names = {
+            a: frozenset(
+                n
+                for n, (b, i) in self._links.items()
+                if b == self._robot and self._below(i, self._arm_joints[a][0])
+            )
+            for a in self._sides
+        }
         self._torso = self._robot_joints[robot.torso.joint]
         self._torso_link = self._torso  # the torso joint's child link (same index)
         self._torso_slot = self._dofs.index(self._torso)
@@ -252,7 +265,8 @@ class WorldBase:
         self._init_reach_facts()
         #: the neck's rigid geometry for pointing the head: the pan joint in the torso
         #: link, the tilt joint in the pan link and the camera in the tilt link (each a
-        #: joint origin, so whatever the pan and tilt; rounded to 1 nm)
+        #: joint origin, so whatever the pan and tilt; rounded to 1 µm: PyBullet's FK is
+        #: float32-exact)
         self._neck: tuple[_Vec, _Vec, _Vec] = (
             self._origin_in(self._pan, self._torso_link),
             self._origin_in(self._tilt, self._pan),
@@ -299,17 +313,12 @@ class WorldBase:
     def arm_links(self, arm: str) -> frozenset[str]:
         """Names of ``arm``'s links: its first joint's link and everything below it
         (the PR2-like robot: the ``l_*``/``r_*`` links)."""
-        first = self._arm_joints[self._arm(arm)][0]
-        return frozenset(
-            n for n, (b, i) in self._links.items() if b == self._robot and self._below(i, first)
-        )
+        return self._arm_link_names[self._arm(arm)]
 
     def gripper_links(self, arm: str) -> frozenset[str]:
         """Names of ``arm``'s gripper links: every link strictly below its hand link (the
         PR2-like robot: the ``?_gripper_*`` links)."""
-        return frozenset(
-            self._link_names[(self._robot, i)] for i in self._gripper_links[self._arm(arm)]
-        )
+        return self._gripper_link_names[self._arm(arm)]
 
     def _origin_in(self, link: int, frame: int) -> _Vec:
         """The origin of robot link ``link`` in the frame of robot link ``frame``."""

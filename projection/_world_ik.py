@@ -80,7 +80,12 @@ def _seeds(
     """An arm's IK seed library: its description's ``ik_seeds``; without any, its named
     states (park, carry, ...) in the description's order, then :data:`GENERATED_SEEDS`
     configurations drawn (from a fixed seed: the same every time) within the middle 60 %
-    of each joint's range (a joint without limits: of [-pi, pi])."""
+    of each joint's range (a joint without limits: of [-pi, pi]).
+
+    Deliberate difference from CRAM: CRAM asks a per-robot IK service (the PR2's own, or
+    KDL) and knows no seeds; here one damped-least-squares solver serves every robot, and
+    the seeds (the robot's knowledge when its description names them) are what make its
+    answers good for that robot."""
     if arm.ik_seeds:
         return arm.ik_seeds
     rng = np.random.default_rng(0)
