@@ -1,6 +1,11 @@
-"""The robot's imagination: a PyBullet world (PR2-like robot, kitchen, household objects),
+"""The robot's imagination: a PyBullet world (a robot, kitchen, household objects),
 CRAM's low-level projection functions, projection process modules, and costmap-based
 location resolution. Implements the interfaces that :mod:`executive` defines.
+
+The robot is any :class:`executive.RobotDescription` (``World(robot=...)``; default the
+PR2-like robot of ``robots.pr2``, e.g. ``robots.panda.DESCRIPTION`` for a one-armed mobile
+Panda): the world loads its URDF and reads its arms, grippers, torso, neck, camera and
+reach from the description, and nothing in this package names a robot's joints or links.
 
 :class:`World` (``projection._world``) is one PyBullet DIRECT client owning the robot,
 the kitchen and an object registry, with CRAM's low-level functions as methods: ``drive``,
