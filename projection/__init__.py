@@ -5,7 +5,10 @@ location resolution. Implements the interfaces that :mod:`executive` defines.
 The robot is any :class:`executive.RobotDescription` (``World(robot=...)``; default the
 PR2-like robot of ``robots.pr2``, e.g. ``robots.panda.DESCRIPTION`` for a one-armed mobile
 Panda): the world loads its URDF and reads its arms, grippers, torso, neck, camera and
-reach from the description, and nothing in this package names a robot's joints or links.
+reach from the description. Robot-specific names and numbers remain only in the PR2-like
+robot's URDF generator (``projection._urdf``) and in a few documented PR2 defaults of
+helper functions (the costmaps' shoulders and camera heights, used when no world's robot
+is given).
 
 :class:`World` (``projection._world``) is one PyBullet DIRECT client owning the robot,
 the kitchen and an object registry, with CRAM's low-level functions as methods: ``drive``,
