@@ -135,7 +135,7 @@ class WorldProbes(Protocol):
 
     Every probe leaves the world exactly as it found it. Plans iterate designator
     solutions around these probes (in :mod:`plans`); projection implements them with
-    PyBullet. Poses may be given in ``map`` or ``base_footprint``.
+    PyBullet. Poses may be given in ``map`` or the robot's base frame.
     """
 
     def probe_base_pose(self, pose: Pose) -> ProbeResult:

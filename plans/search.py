@@ -34,7 +34,6 @@ from executive import (
     a,
     an,
     current_environment,
-    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -43,11 +42,12 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    arm_names,
     object_label,
     the_base,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object, default_of
+from ._designators import _check_places, _location, _object, default_of, robot_name
 from .atomic import park_arms
 from .viewpoints import navigate_to_best_viewpoint
 
@@ -87,7 +87,7 @@ async def search_for_object(
     @retry_scope(SEARCH_FAILURES, spots, CountedRetries(retries, "search"), rethrow=nowhere)
     async def look_there() -> ObjectDesignator:
         spot = spots.current.reference()
-        view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
+        view = a.location(visible_for=robot_name(), location=a.location(pose=spot))
         if viewpoint_reasoning:
             await navigate_to_best_viewpoint(object_designator, spots.current, spot, view)
         else:
@@ -122,7 +122,7 @@ async def arms_out_of_view() -> None:
     counter (the spoon's visibility was 0.33 in ``carry`` and 1.0 in ``park`` from the
     same base pose)."""
     world = current_environment().world
-    if any(world.object_in_hand(arm) for arm in knowledge.ARMS):
+    if any(world.object_in_hand(arm) for arm in arm_names()):
         return
     await park_arms("park")
 
