@@ -38,6 +38,7 @@ __all__ = [
     "as_location",
     "base_frame",
     "grippers_named",
+    "hand_link_of",
     "hand_of",
     "ignoring",
     "object_label",
@@ -47,10 +48,9 @@ __all__ = [
     "the_base",
     "the_robot",
     "to_base",
-    "tool_frame",
+    "tool_frame_of",
     "translating_designator_errors",
     "translating_failures",
-    "wrist_link",
 ]
 
 
@@ -86,12 +86,12 @@ def base_frame() -> str:
     return the_robot().base_frame
 
 
-def tool_frame(arm: str) -> str:
+def tool_frame_of(arm: str) -> str:
     """The tool frame link of the robot's ``arm`` (grasp poses are in it)."""
     return arm_description(arm).tool_frame
 
 
-def wrist_link(arm: str) -> str:
+def hand_link_of(arm: str) -> str:
     """The link an object held by the robot's ``arm`` hangs from."""
     return arm_description(arm).hand_link
 

@@ -79,9 +79,9 @@ from ._common import (
     arms_left_to_right,
     as_location,
     grippers_named,
+    hand_link_of,
     perform_ignoring,
     the_base,
-    wrist_link,
 )
 
 _log = logging.getLogger(__name__)
@@ -473,7 +473,7 @@ def _object_fell_out(failure: BaseException, arms: Sequence[str]) -> None:
         if name is None:
             continue
         _log.warning("%s fell out of the %s gripper while moving the arm: %s", name, arm, failure)
-        emit(ObjectDetached(an.object(name=name), arm, wrist_link(arm)))
+        emit(ObjectDetached(an.object(name=name), arm, hand_link_of(arm)))
 
 
 def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:

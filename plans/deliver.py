@@ -96,7 +96,7 @@ def _injected_spot(
 ) -> Pose | None:
     """The map pose of an injected (projected) place action's target.
 
-    CRAM reuses the projected placing target as it is, a pose in ``base_footprint``
+    CRAM reuses the projected placing target as it is, a pose in the robot's base frame
     computed where the imagined robot stood. Deliberate difference: we anchor it in the
     map through that imagined base pose (the injected robot location), so that a real
     robot that stopped elsewhere still puts the object where projection meant it, and its
@@ -116,7 +116,8 @@ def _injected_spot(
     base: Pose = robot_location.reference()
     if base.frame != "map":
         base = to_map(base)
-    spot: Pose = base.to_transform("base_footprint") * pose
+    # the target is in the robot's base frame (not map): the imagined base carries it
+    spot: Pose = base.to_transform(pose.frame) * pose
     return spot
 
 

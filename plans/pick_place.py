@@ -75,12 +75,12 @@ from ._common import (
     arm_description,
     arm_names,
     base_frame,
+    hand_link_of,
     hand_of,
     object_label,
     perform_ignoring,
     to_base,
-    tool_frame,
-    wrist_link,
+    tool_frame_of,
 )
 from ._designators import _given_arm
 
@@ -152,7 +152,7 @@ async def pick_up(
         raise failure
 
     await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
-    emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectAttached(object_designator, arm, hand_link_of(arm)))
 
     async def lift() -> None:
         await perform(_arm_action("lifting", arm, lift_poses))
@@ -249,7 +249,7 @@ def object_lost(object_designator: Any, arm: str, during: str, failure: BaseExce
     """The object is no longer in ``arm``: tell the world model (``ObjectDetached``: the
     belief lets it fall where the hand is, to be perceived again) and raise
     :class:`~executive.GripperClosedCompletely` (from ``failure``)."""
-    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
     raise GripperClosedCompletely(
         f"{object_name(object_designator)} was lost from the {arm} gripper while {during}",
         action=during,
@@ -415,7 +415,7 @@ async def place(
     await perform(_arm_action("reaching", arm, reach_poses))
     await perform_ignoring(_arm_action("putting", arm, put_poses), ManipulationLowLevelFailure)
     await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
-    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
     await perform_ignoring(
         _arm_action("retracting", arm, retract_poses), ManipulationLowLevelFailure
     )
@@ -553,7 +553,7 @@ def _placing(d: Designator) -> Iterator[Any]:
         obj = given.current() if isinstance(given, ObjectDesignator) else an.object(name=name)
         otype = world.object_type(name)
         obj_map = world.object_pose(name, "map").to_transform()
-        tool_map = world.link_pose(tool_frame(arm), "map").to_transform()
+        tool_map = world.link_pose(tool_frame_of(arm), "map").to_transform()
         object_t_tool = obj_map.inverse() * tool_map
         standard_to_tool = arm_description(arm).standard_to_tool
         if target is None:
@@ -599,4 +599,4 @@ async def release_held(object_designator: Any) -> None:
     for arm in arm_names():
         if world.object_in_hand(arm) == name:
             await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
-            emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+            emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
