@@ -94,10 +94,11 @@ def make_robot(world: InMemoryWorld, **fail_on: dict[int, Any]) -> Robot:
         command, args = m.reference()
         if command != "move-tcp":
             return
-        for arm, prefix in (("left", "l"), ("right", "r")):
-            if args[arm] is not None:
-                for link in ("gripper_tool_frame", "wrist_roll_link"):  # one frame, here
-                    world.set_link_pose(f"{prefix}_{link}", args[arm])
+        assert world.robot is not None, "plan tests need InMemoryWorld(robot=...)"
+        for arm in world.robot.arms:
+            if args[arm.name] is not None:
+                for link in (arm.tool_frame, arm.hand_link):  # one frame, here
+                    world.set_link_pose(link, args[arm.name])
 
     robot = Robot(world)
     specs = {
