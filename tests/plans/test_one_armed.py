@@ -74,6 +74,7 @@ def test_the_grasp_poses_are_the_panda_tool_frames() -> None:
     action = an.action(type="picking-up", object=perceived_cup(world))
     robot.run(perform, action)
     args = action.reference().arguments
+    assert isinstance(args, dict)
     transform = args["object_designator"]["transform"]
     panda = knowledge.grasp_poses("cup", "back", transform, LEFT.standard_to_tool)
     pr2 = knowledge.grasp_poses("cup", "back", transform, PR2.arm("left").standard_to_tool)
