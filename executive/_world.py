@@ -182,7 +182,8 @@ class ArmSweepProbe(Protocol):
         *,
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
-        """``left``/``right``: 7 joint values each, ``None``: that arm stays."""
+        """``left``/``right``: one value per joint of that arm (its description's
+        ``joints``), ``None``: that arm stays (or the robot has no such arm)."""
         ...
 
 

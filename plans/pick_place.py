@@ -10,7 +10,11 @@ grasp, lift, 2nd lift), in the robot's base frame.
 The arms, their tool frames, the link a held object hangs from and the standard-gripper ->
 tool rotation each grasp combines with are the environment's robot's
 (:attr:`executive.Environment.robot`): "right, then left" is the PR2-like robot's order;
-a one-armed robot has only its ``left`` arm to try.
+a one-armed robot has only its ``left`` arm to try. The gripper opens to the type's
+opening (object knowledge), but no wider than the arm's gripper opens
+(:attr:`executive.GripperDescription.max_opening`). Deliberate difference from CRAM, whose
+opening is the type's whatever the robot: a Panda's 0.08 m gripper cannot open to the
+0.10 m of a cup, and ``setting-gripper`` refuses an opening out of range.
 
 ``placing (object O)? (arm A)? (target L)?``: the arms holding something (or the given
 arm); the target's every solution (else the object's current pose); the five waypoints at
