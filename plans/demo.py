@@ -203,7 +203,7 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
 
 
 async def _initialize_or_finalize(configuration: str) -> None:
-    """Park the arms, go to the map origin, open both grippers, look forward; failures
+    """Park the arms, go to the map origin, open the grippers, look forward; failures
     ignored (CRAM's ``initialize-or-finalize``). Deviation: each step's failures are
     ignored on their own (CRAM ignored them around the whole sequence, so a failed
     ``going`` skipped the rest), and the arms are parked again last, so the robot ends
@@ -214,7 +214,8 @@ async def _initialize_or_finalize(configuration: str) -> None:
         lambda: perform(an.action(type="going", target=a.location(pose=Pose()))), failures
     )
     await ignoring(
-        lambda: perform(an.action(type="opening-gripper", gripper=("left", "right"))), failures
+        lambda: perform(an.action(type="opening-gripper", gripper=arms_left_to_right())),
+        failures,
     )
     await ignoring(lambda: perform(an.action(type="looking", direction="forward")), failures)
     await ignoring(lambda: park_arms(configuration), failures)

@@ -172,6 +172,20 @@ def test_fetching_fails_as_unfetchable_when_the_one_arm_never_reaches() -> None:
     assert len(world.probe_calls["arm"]) == 110
 
 
+def test_the_demos_initialization_opens_the_one_gripper() -> None:
+    """It used to open ("left", "right"): on a one-armed robot a designator error, ignored
+    by the initialization, so the gripper stayed as it was."""
+    from plans.demo import _initialize_or_finalize
+
+    world = cup_world_for(PANDA)
+    robot = make_robot(world)
+    robot.run(_initialize_or_finalize, "park")
+    opened = [m.reference().arguments for m in robot.calls("grippers", "opening-gripper")]
+    assert opened and all(g["gripper"] in ("left", ("left",)) for g in opened)
+    joints = [m.reference().arguments for m in robot.calls("arms", "moving-arm-joints")]
+    assert [j["left"] for j in joints] == [LEFT.state("park")] * 2
+
+
 # -------------------------------------------------------------------- no description
 def test_a_plan_on_a_world_without_a_description_names_the_fix() -> None:
     world = InMemoryWorld(objects={"cup-1": Pose((1.3, 0.6, 0.9))}, types={"cup-1": "cup"})
