@@ -45,19 +45,17 @@ from ._common import (
     arm_names,
     object_label,
     the_base,
+    the_robot,
     translating_designator_errors,
 )
 from ._designators import _check_places, _location, _object, default_of, robot_name
 from .atomic import park_arms
 from .viewpoints import navigate_to_best_viewpoint
 
-__all__ = ["SEARCH_FAILURES", "SEARCH_TORSO_HEIGHT", "arms_out_of_view", "search_for_object"]
+__all__ = ["SEARCH_FAILURES", "arms_out_of_view", "search_for_object"]
 
 
 # ----------------------------------------------------------------------------- searching
-#: Torso height (m) from which ``searching`` looks a second time (the upper limit: camera
-#: at ~1.6 m).
-SEARCH_TORSO_HEIGHT = 0.33
 
 #: The failures after which ``searching`` tries the next sample of its location.
 SEARCH_FAILURES = (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure)
@@ -128,8 +126,10 @@ async def arms_out_of_view() -> None:
 
 
 async def _look_from_higher(spot: Pose) -> None:
-    """Raise the torso to :data:`SEARCH_TORSO_HEIGHT` and turn towards ``spot`` again."""
-    await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
+    """Raise the torso to its upper limit (the robot description's
+    :attr:`executive.TorsoDescription.upper`; the PR2-like robot's camera is then at
+    ~1.6 m) and turn towards ``spot`` again."""
+    await perform(an.action(type="moving-torso", joint_angle=the_robot().torso.upper))
     await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
@@ -166,7 +166,7 @@ async def _look_from_higher(spot: Pose) -> None:
             Retry(
                 1,
                 (PerceptionLowLevelFailure,),
-                f"raise the torso to {SEARCH_TORSO_HEIGHT} m, turn towards, detect again",
+                "raise the torso to its upper limit, turn towards, detect again",
                 counter="search-torso",
             ),
         ),

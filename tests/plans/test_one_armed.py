@@ -129,6 +129,19 @@ def test_a_search_looks_from_where_the_panda_sees() -> None:
     assert ("visible-for", "panda") in seen and ("visible-for", "pr2") not in seen
 
 
+def test_a_search_looks_again_from_the_robots_highest_torso() -> None:
+    world = cup_world_for(PANDA)
+    # the detecting action retries 4x (5 calls); then the search raises the torso once
+    failing = {i: executive.PerceptionObjectNotFound for i in range(1, 6)}
+    robot = make_robot(world, perception=failing)
+    robot.run(
+        perform,
+        an.action(type="searching", object=an.object(type="cup"), location=a.location(spots=2)),
+    )
+    (torso,) = robot.calls("torso")
+    assert torso.get("joint-angle") == PANDA.torso.upper == 0.40
+
+
 def test_parking_moves_only_the_arm_the_robot_has() -> None:
     world = cup_world_for(PANDA)
     robot = make_robot(world)
