@@ -285,7 +285,7 @@ def _tcp_alias(side: str) -> Key:
 def _joints_key(side: str) -> Key:
     return Key(
         f"{side}-joint-states",
-        "7 joint values (rad)",
+        "joint values (rad), one per arm joint",
         f"the {side} arm's joints",
         default="arm stays",
     )
@@ -294,7 +294,7 @@ def _joints_key(side: str) -> Key:
 def _joints_alias(side: str) -> Key:
     return Key(
         f"{side}-configuration",
-        "7 joint values (rad)",
+        "joint values (rad), one per arm joint",
         f"alias of {side}-joint-states",
         default="-",
     )

@@ -135,7 +135,7 @@ class WorldProbes(Protocol):
 
     Every probe leaves the world exactly as it found it. Plans iterate designator
     solutions around these probes (in :mod:`plans`); projection implements them with
-    PyBullet. Poses may be given in ``map`` or ``base_footprint``.
+    PyBullet. Poses may be given in ``map`` or the robot's base frame.
     """
 
     def probe_base_pose(self, pose: Pose) -> ProbeResult:
@@ -182,7 +182,8 @@ class ArmSweepProbe(Protocol):
         *,
         allowed_contacts: Sequence[str] = (),
     ) -> ProbeResult:
-        """``left``/``right``: 7 joint values each, ``None``: that arm stays."""
+        """``left``/``right``: one value per joint of that arm (its description's
+        ``joints``), ``None``: that arm stays (or the robot has no such arm)."""
         ...
 
 

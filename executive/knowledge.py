@@ -9,14 +9,15 @@ gripping effort (Nm) and the gripper opening (m).
 
 :func:`grasp_poses` computes CRAM's five waypoints ``bTg = bTo · oTg′ · g′Tg`` where
 ``oTg′`` is the standard gripper in the object frame and ``g′Tg`` the standard-gripper ->
-PR2 tool-frame rotation (rows (0 1 0), (0 0 1), (1 0 0)). Unknown types or grasps raise
+tool-frame rotation of the arm that grasps, passed in from the robot's description
+(:attr:`executive.ArmDescription.standard_to_tool`). Unknown types or grasps raise
 :class:`LookupError` naming the known ones. Everything here is immutable.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -319,21 +320,25 @@ def gripper_opening(object_type: str) -> float:
     return object_knowledge(object_type).opening
 
 
-_G_PRIME_T_G = np.array(STANDARD_TO_PR2_ROTATION)
-
-
 #: An object whose z axis is tilted more than this (rad) from the vertical lies: its grasp
 #: offsets' z components go along the vertical (see :func:`grasp_poses`).
 LYING_TILT = 0.35
 
 
 def grasp_poses(
-    object_type: str, grasp_name: str, object_transform_in_base: Transform | Pose
+    object_type: str,
+    grasp_name: str,
+    object_transform_in_base: Transform | Pose,
+    standard_to_tool: Sequence[Sequence[float]],
 ) -> list[Pose]:
     """The five tool-frame waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift] as
-    poses in the transform's parent frame (normally ``base_footprint``):
+    poses in the transform's parent frame (normally the robot's base frame):
     ``bTg = bTo · oTg′ · g′Tg`` with the offsets added to the grasp translation in the
-    object frame. Unknown type or grasp -> :class:`LookupError`.
+    object frame. ``standard_to_tool`` is ``g′Tg``, the rotation (rows) from the standard
+    gripper to the arm's tool frame (:attr:`executive.ArmDescription.standard_to_tool`):
+    the object knowledge is robot-independent and combines with it. Unknown type or grasp
+    -> :class:`LookupError`; a ``standard_to_tool`` that is not a 3x3 matrix ->
+    :class:`ValueError`.
 
     A lying object (its z axis more than :data:`LYING_TILT` from the vertical, e.g. a milk
     carton knocked over): the grasp itself stays in the object frame, so the side grasp
@@ -344,9 +349,15 @@ def grasp_poses(
     placing (:mod:`plans.pick_place`) then puts the object down upright, holding it by the
     same grasp, now horizontal."""
     g = grasp(object_type, grasp_name)
+    g_prime_t_g = np.array(standard_to_tool, dtype=float)
+    if g_prime_t_g.shape != (3, 3):
+        raise ValueError(
+            f"standard_to_tool must be a 3x3 rotation (rows), got {standard_to_tool!r}: pass "
+            "the arm's executive.ArmDescription.standard_to_tool"
+        )
     b_t_o = object_transform_in_base.matrix()
     frame = object_transform_in_base.frame
-    rot = np.array(g.rotation) @ _G_PRIME_T_G
+    rot = np.array(g.rotation) @ g_prime_t_g
     lying = b_t_o[2, 2] < math.cos(LYING_TILT)
     out: list[Pose] = []
     for off in g.offsets():

@@ -2,7 +2,8 @@
 
 Use them inside ``cpl.with_failure_handling`` handlers::
 
-    robot_loc = SolutionCursor(a.location(reachable_for="pr2", location=obj_loc))
+    robot = current_environment().robot  # the robot's name: never spelt in a plan
+    robot_loc = SolutionCursor(a.location(reachable_for=robot.name, location=obj_loc))
     relocations = cpl.RetryCounter(10)
 
     async def body():

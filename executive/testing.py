@@ -69,8 +69,11 @@ class InMemoryWorld:
     ``robot_state_changes``. Every event is appended to ``events``.
     Unknown objects raise :class:`executive.PerceptionObjectNotInWorld`.
 
-    Links: ``links`` maps link names to poses in ``map`` or ``base_footprint`` (a
-    ``base_footprint`` link moves with the robot); :meth:`set_link_pose` changes one.
+    Frames: ``map`` and, with a ``robot`` description, the robot's base frame
+    (:attr:`executive.RobotDescription.base_frame`), which moves with the robot pose.
+    Without a description only ``map`` is known (asking for another frame: ValueError
+    naming the fix). Links: ``links`` maps link names to poses in ``map`` or the base frame
+    (a base-frame link moves with the robot); :meth:`set_link_pose` changes one.
     Extents: ``aabbs`` maps link or object names to ``(min, max)`` boxes in ``map``;
     :meth:`link_aabb` / :meth:`object_aabb` raise ``LookupError`` for any other name (a
     plan then falls back as it would for a world without that knowledge).
@@ -153,14 +156,23 @@ class InMemoryWorld:
     def _express(self, pose: Pose, frame: str) -> Pose:
         if frame == pose.frame:
             return pose
-        base = self._robot_pose.to_transform("base_footprint")
-        if frame == "base_footprint" and pose.frame == "map":
+        other = frame if frame != "map" else pose.frame
+        if self.robot is None:
+            raise ValueError(
+                f"InMemoryWorld without a robot description knows only the 'map' frame, "
+                f"not {other!r}: build it with "
+                "robot=<an executive.RobotDescription> to use the robot's base frame"
+            )
+        base_frame = self.robot.base_frame
+        base = self._robot_pose.to_transform(base_frame)
+        if frame == base_frame and pose.frame == "map":
             result: Pose = base.inverse() * pose
             return result
-        if frame == "map" and pose.frame == "base_footprint":
+        if frame == "map" and pose.frame == base_frame:
             mapped: Pose = base * pose
             return mapped
-        raise ValueError(f"InMemoryWorld knows frames 'map' and 'base_footprint', not {frame!r}")
+        unknown = frame if frame not in ("map", base_frame) else pose.frame
+        raise ValueError(f"InMemoryWorld knows frames 'map' and {base_frame!r}, not {unknown!r}")
 
     def robot_pose(self) -> Pose:
         return self._robot_pose

@@ -1,6 +1,8 @@
 """Small helpers shared by the plan modules: failure-handling idioms that CRAM writes
-inline (``(return)`` handlers, ``designator-error`` translation), arm/link names, frame
-conversion through the world model, and the per-run retry ledger the demo reads."""
+inline (``(return)`` handlers, ``designator-error`` translation), the robot's arms and
+frames (from the environment's :class:`executive.RobotDescription`: the plans never spell
+a robot's joint, link or name), frame conversion through the world model, and the per-run
+retry ledger the demo reads."""
 
 from __future__ import annotations
 
@@ -14,23 +16,29 @@ from typing import Any
 import cpl
 import executive
 from executive import (
+    ARM_NAMES,
+    ArmDescription,
     DesignatorError,
     DesignatorInputError,
     LocationDesignator,
     ObjectDesignator,
     Pose,
     Resource,
+    RobotDescription,
     a,
     current_environment,
     perform,
 )
-from executive.knowledge import ARM_PREFIX, tool_frame, wrist_link
 
 __all__ = [
-    "ARM_PREFIX",
     "CountedRetries",
+    "arm_description",
+    "arm_names",
+    "arms_left_to_right",
     "as_location",
+    "base_frame",
     "grippers_named",
+    "hand_link_of",
     "hand_of",
     "ignoring",
     "object_label",
@@ -38,12 +46,54 @@ __all__ = [
     "retry_ledger",
     "tally",
     "the_base",
+    "the_robot",
     "to_base",
-    "tool_frame",
+    "tool_frame_of",
     "translating_designator_errors",
     "translating_failures",
-    "wrist_link",
 ]
+
+
+def the_robot() -> RobotDescription:
+    """The description of the robot the current environment drives
+    (:attr:`executive.Environment.robot`; none -> :class:`executive.NoRobotDescription`
+    naming the fix). Like CRAM's ``(rob-int:current-robot-name)``, read when a plan runs,
+    never fixed when the plan is written."""
+    return current_environment().robot
+
+
+def arm_names() -> tuple[str, ...]:
+    """The robot's arms in the order the plans try them (one arm: just ``left``)."""
+    return the_robot().arm_names
+
+
+def arms_left_to_right() -> tuple[str, ...]:
+    """The robot's arms in CRAM's ``left``, ``right`` order (the order of the
+    ``left-...`` / ``right-...`` keys of the arm actions), whichever order the description
+    tries them in; a one-armed robot: ``("left",)``."""
+    have = the_robot().arm_names
+    return tuple(name for name in ARM_NAMES if name in have)
+
+
+def arm_description(arm: str) -> ArmDescription:
+    """The robot's arm called ``arm``; an arm the robot lacks -> :class:`LookupError`
+    naming the robot's arms."""
+    return the_robot().arm(arm)
+
+
+def base_frame() -> str:
+    """The robot's base frame (the frame base-relative poses are given in)."""
+    return the_robot().base_frame
+
+
+def tool_frame_of(arm: str) -> str:
+    """The tool frame link of the robot's ``arm`` (grasp poses are in it)."""
+    return arm_description(arm).tool_frame
+
+
+def hand_link_of(arm: str) -> str:
+    """The link an object held by the robot's ``arm`` hangs from."""
+    return arm_description(arm).hand_link
 
 
 def hand_of(arguments: Any) -> tuple[Resource, Resource]:
@@ -182,21 +232,22 @@ def as_location(target: Any) -> LocationDesignator:
 
 
 def to_base(pose: Pose) -> Pose:
-    """``pose`` in ``base_footprint`` at the robot's current pose (world model)."""
-    if pose.frame == "base_footprint":
+    """``pose`` in the robot's base frame at the robot's current pose (world model)."""
+    base = base_frame()
+    if pose.frame == base:
         return pose
     if pose.frame != "map":
-        raise DesignatorError(f"poses are given in map or base_footprint, not {pose.frame!r}")
-    robot = current_environment().world.robot_pose().to_transform("base_footprint")
+        raise DesignatorError(f"poses are given in map or {base}, not {pose.frame!r}")
+    robot = current_environment().world.robot_pose().to_transform(base)
     result: Pose = robot.inverse() * pose
     return result
 
 
 def to_map(pose: Pose) -> Pose:
-    """``pose`` in ``map`` (a ``base_footprint`` pose is taken at the robot's pose now)."""
+    """``pose`` in ``map`` (a base-frame pose is taken at the robot's pose now)."""
     if pose.frame == "map":
         return pose
-    robot = current_environment().world.robot_pose().to_transform("base_footprint")
+    robot = current_environment().world.robot_pose().to_transform(base_frame())
     result: Pose = robot * pose
     return result
 

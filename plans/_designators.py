@@ -2,6 +2,13 @@
 transport and environment-access plans: the robot's name in location designators, and
 the checks that turn a missing or malformed property into a ``DesignatorError`` raised by
 the rule (before anything moves).
+
+The robot's name in ``reachable-for`` / ``visible-for`` is read from the environment's
+robot description (:func:`robot_name`) when the plan builds the location designator, as
+CRAM's plans do (``(rob-int:current-robot-name)`` inside the plan body, e.g. fetching's
+``(a location (reachable-for ,robot-name) ...)``): the same plan code drives whichever
+robot the environment carries, and a designator, once built, names the robot it was built
+for (its resolution and the recorded task tree say which robot it was).
 """
 
 from __future__ import annotations
@@ -24,13 +31,16 @@ from executive import (
     knowledge,
 )
 
-from ._common import as_location
+from ._common import arm_names, as_location, the_robot
 
-__all__ = ["ROBOT", "default_of", "learned_base"]
+__all__ = ["default_of", "learned_base", "robot_name"]
 
 
-#: The robot name in ``reachable-for`` / ``visible-for`` location designators.
-ROBOT = "pr2"
+def robot_name() -> str:
+    """The robot's name for ``reachable-for`` / ``visible-for`` location designators: the
+    current environment's robot description's :attr:`~executive.RobotDescription.name`
+    (none -> :class:`executive.NoRobotDescription` naming the fix)."""
+    return the_robot().name
 
 
 def default_of(fn: Callable[..., Any], parameter: str) -> int:
@@ -112,10 +122,12 @@ def _given_arm(d: Designator, default: str | None = None) -> str | None:
     arms (it used to surface from an inner ``setting-gripper`` action, after the robot had
     driven and reached)."""
     arm = d.get("arm", default)
-    if arm is not None and arm not in knowledge.ARMS:
-        raise DesignatorInputError(
-            f"{d.short()}: unknown arm {arm!r}; known arms: {', '.join(knowledge.ARMS)}", d
-        )
+    if arm is not None:
+        known = arm_names()
+        if arm not in known:
+            raise DesignatorInputError(
+                f"{d.short()}: unknown arm {arm!r}; known arms: {', '.join(known)}", d
+            )
     return None if arm is None else str(arm)
 
 

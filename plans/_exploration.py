@@ -29,23 +29,30 @@ from executive import (
 )
 
 __all__ = [
-    "ARMS",
     "POOL_PER_RUN",
     "Exploration",
+    "explored_arms",
     "learned_weight",
     "partition_by_bearing",
     "to_pose",
     "wrap",
 ]
 
+from ._common import arms_left_to_right
+
 log = logging.getLogger("plans.reasoning")
 
 
 #: Samples drawn per imagined run into a shared pool (see :class:`Exploration`).
 POOL_PER_RUN = 4
-#: The arm an imagined run explores when the caller fixed none: run ``i`` (1-based) takes
-#: ``ARMS[(i - 1) % 3]`` (``None``: the plan chooses).
-ARMS: tuple[str | None, ...] = (None, "left", "right")
+
+
+def explored_arms() -> tuple[str | None, ...]:
+    """The arms imagined runs explore when the caller fixed none: ``None`` (the plan
+    chooses), then each of the environment's robot's arms in CRAM's left, right order;
+    run ``i`` (1-based) takes element ``(i - 1) % len``. The PR2-like robot: none, left,
+    right; a one-armed robot: none, left."""
+    return (None, *arms_left_to_right())
 
 
 def _bearing(pose: Pose, around: Sequence[float]) -> float:
@@ -168,8 +175,8 @@ class Exploration:
       relocations after the 4th failure, with ``ObjectUnfetchable``). A
       pool too small for a region (e.g. a fixed pose target) leaves later runs on the
       plan's own designator.
-    * **arm**: ``ARMS[(run - 1) % 3]`` = unconstrained / left / right, unless the caller
-      fixed the arm.
+    * **arm**: ``explored_arms()[(run - 1) % n]`` = unconstrained / left / right (a
+      one-armed robot: unconstrained / left), unless the caller fixed the arm.
     * the grasp follows from arm and base pose (the picking checks choose it).
 
     ``explored`` records what this run was given (for the task tree and the demo)."""
@@ -185,7 +192,11 @@ class Exploration:
 
     def arm(self, given: str | None) -> str | None:
         """The arm this run explores (``given`` when the caller fixed one)."""
-        arm = given if given is not None else ARMS[(self.run - 1) % len(ARMS)]
+        if given is not None:
+            arm: str | None = given
+        else:
+            arms = explored_arms()
+            arm = arms[(self.run - 1) % len(arms)]
         self.explored["arm"] = arm or "any"
         return arm
 

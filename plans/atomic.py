@@ -66,7 +66,6 @@ from executive import (
     current_environment,
     emit,
     equate,
-    knowledge,
     perform,
     register_resources,
     rule,
@@ -75,11 +74,14 @@ from executive.events import ObjectDetached, ObjectPerceived, RobotStateChanged
 
 from ._common import (
     CountedRetries,
+    arm_description,
+    arm_names,
+    arms_left_to_right,
     as_location,
     grippers_named,
+    hand_link_of,
     perform_ignoring,
     the_base,
-    wrist_link,
 )
 
 _log = logging.getLogger(__name__)
@@ -106,16 +108,19 @@ _GRIPPER = Key("gripper", "'left' | 'right' | ('left', 'right')", "the gripper(s
 
 def _arm(d: Designator, key: str = "arm", default: str | None = None) -> str:
     value = d.get(key, default)
-    if value not in knowledge.ARMS:
-        raise DesignatorError(f"{d.short()}: {key} must be one of {knowledge.ARMS}, got {value!r}")
+    known = arm_names()
+    if value not in known:
+        raise DesignatorError(f"{d.short()}: {key} must be one of {known}, got {value!r}")
     return str(value)
 
 
 def _gripper(d: Designator) -> Any:
     value = d.get("gripper")
     grippers = value if isinstance(value, tuple) else (value,)
-    if not grippers or any(g not in knowledge.ARMS for g in grippers):
-        raise DesignatorError(f"{d.short()} needs gripper 'left', 'right' or both, got {value!r}")
+    known = arms_left_to_right()
+    if not grippers or any(g not in known for g in grippers):
+        choices = ", ".join(repr(g) for g in known) + (" or both" if len(known) > 1 else "")
+        raise DesignatorError(f"{d.short()} needs gripper {choices}, got {value!r}")
     return value
 
 
@@ -468,7 +473,7 @@ def _object_fell_out(failure: BaseException, arms: Sequence[str]) -> None:
         if name is None:
             continue
         _log.warning("%s fell out of the %s gripper while moving the arm: %s", name, arm, failure)
-        emit(ObjectDetached(an.object(name=name), arm, wrist_link(arm)))
+        emit(ObjectDetached(an.object(name=name), arm, hand_link_of(arm)))
 
 
 def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
@@ -481,12 +486,16 @@ def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
     value = d.get(key)
     if value is None:
         return None
+    try:
+        description = arm_description(arm)
+    except LookupError as exc:
+        raise DesignatorInputError(f"{d.short()}: {key}: {exc}", d) from None
     if not isinstance(value, tuple):
         try:
-            return knowledge.arm_configuration(str(value), arm)
+            return description.state(str(value))
         except LookupError as exc:
             raise DesignatorInputError(f"{d.short()}: {exc}", d) from None
-    joints = knowledge.ARM_JOINTS
+    joints = description.joints
     if len(value) != len(joints) or not all(
         isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
     ):
@@ -512,7 +521,7 @@ def _configuration(d: Designator, arm: str) -> tuple[float, ...] | None:
 _LIMIT_TOLERANCE = 1e-6
 
 
-_CONFIGURATION = "'park' | 'carry' | 7 joint values (rad)"
+_CONFIGURATION = "'park' | 'carry' | joint values (rad), one per arm joint"
 
 
 @rule(
@@ -546,7 +555,7 @@ def _positioning_arm(d: Designator) -> Iterator[Any]:
     if left is None and right is None:
         raise DesignatorError(
             f"{d.short()} needs left-configuration and/or right-configuration ('park', "
-            "'carry' or 7 joint values)",
+            "'carry' or joint values, one per arm joint)",
             d,
         )
     yield position_arms, {"left": left, "right": right}
@@ -561,12 +570,12 @@ register_resources(
 async def park_arms(configuration: str = "carry") -> None:
     """Both arms to a named configuration (CRAM's ``park-arms``). The default is
     ``carry``: CRAM HEAD's ``:carry t`` default (quirk kept); pass ``"park"`` for the arms
-    at the sides. Failures are ignored (by ``position-arms``)."""
+    at the sides. Failures are ignored (by ``position-arms``). Every arm the robot has
+    (a one-armed robot: its ``left``)."""
     await perform(
         an.action(
             type="positioning-arm",
-            left_configuration=configuration,
-            right_configuration=configuration,
+            **{f"{arm}_configuration": configuration for arm in arms_left_to_right()},
         )
     )
 
@@ -681,7 +690,7 @@ async def set_gripper_to_position(gripper: Any, position: float) -> None:
             _GRIPPER,
             Key(
                 "position",
-                f"number (m), 0 to {knowledge.GRIPPER_MAX_OPENING}",
+                "number (m), 0 to the gripper's max_opening",
                 "the opening; out of range: DesignatorError before anything moves",
                 required=True,
             ),
@@ -696,13 +705,18 @@ def _setting_gripper(d: Designator) -> Iterator[Any]:
         raise DesignatorError(f"{d.short()} needs a position (metres)", d)
     # checked here, before the gripper moves: the plan ignores gripper failures, so an
     # opening out of range would otherwise be dropped without a word
-    if not 0.0 <= position <= knowledge.GRIPPER_MAX_OPENING:
+    gripper = _gripper(d)
+    widest = min(
+        arm_description(g).gripper.max_opening
+        for g in (gripper if isinstance(gripper, tuple) else (gripper,))
+    )
+    if not 0.0 <= position <= widest:
         raise DesignatorError(
             f"{d.short()}: position is the gripper opening in metres, from 0 to "
-            f"{knowledge.GRIPPER_MAX_OPENING}; got {position!r}",
+            f"{widest}; got {position!r}",
             d,
         )
-    yield set_gripper_to_position, {"gripper": _gripper(d), "position": float(position)}
+    yield set_gripper_to_position, {"gripper": gripper, "position": float(position)}
 
 
 for _gripper_plan in (grip, release, open_or_close_gripper, set_gripper_to_position):

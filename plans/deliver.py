@@ -48,6 +48,7 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    base_frame,
     ignoring,
     object_label,
     the_base,
@@ -55,7 +56,7 @@ from ._common import (
     to_map,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object, default_of, learned_base
+from ._designators import _check_places, _location, _object, default_of, learned_base, robot_name
 from .checks import (
     PlacingPoseUnstable,
     check_placing_collisions,
@@ -72,7 +73,7 @@ __all__ = [
     "PLACE_TARGETS",
     "SINK_BASE_POSE",
     "SINK_DROP_CLEARANCE",
-    "SINK_DROP_POSE",
+    "SINK_DROP_POSITION",
     "SINK_SURFACE",
     "deliver",
     "drop_at_sink",
@@ -95,7 +96,7 @@ def _injected_spot(
 ) -> Pose | None:
     """The map pose of an injected (projected) place action's target.
 
-    CRAM reuses the projected placing target as it is, a pose in ``base_footprint``
+    CRAM reuses the projected placing target as it is, a pose in the robot's base frame
     computed where the imagined robot stood. Deliberate difference: we anchor it in the
     map through that imagined base pose (the injected robot location), so that a real
     robot that stopped elsewhere still puts the object where projection meant it, and its
@@ -115,7 +116,8 @@ def _injected_spot(
     base: Pose = robot_location.reference()
     if base.frame != "map":
         base = to_map(base)
-    spot: Pose = base.to_transform("base_footprint") * pose
+    # the target is in the robot's base frame (not map): the imagined base carries it
+    spot: Pose = base.to_transform(pose.frame) * pose
     return spot
 
 
@@ -154,7 +156,7 @@ async def deliver(
             given
             if given is not None
             else a.location(
-                reachable_for=ROBOT,
+                reachable_for=robot_name(),
                 location=a.location(pose=target_pose),
                 **learned_base("placing", object_designator),
             )
@@ -293,16 +295,17 @@ def _delivering(d: Designator) -> Iterator[Any]:
 
 
 # ------------------------------------------------------------------ dropping at the sink
-#: CRAM's hard-coded drop-at-sink poses: the base in map, the object in base_footprint.
+#: CRAM's hard-coded drop-at-sink poses: the base in map, the object's position in the
+#: robot's base frame.
 SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
-SINK_DROP_POSE = Pose((0.7, 0.0, 1.2), frame="base_footprint")
+SINK_DROP_POSITION = (0.7, 0.0, 1.2)
 #: The counter the object is put down on at the sink, and the gap (m) left below it.
 SINK_SURFACE = kitchen.SINK_SURFACE
 SINK_DROP_CLEARANCE = 0.01
 
 
 def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
-    """Where ``drop-at-sink`` puts the object, in ``base_footprint`` at
+    """Where ``drop-at-sink`` puts the object, in the robot's base frame at
     :data:`SINK_BASE_POSE`: CRAM's x and y, but (deliberate deviation) the height at which
     the held object's bottom is :data:`SINK_DROP_CLEARANCE` above the sink counter's top,
     from the world model's ``link_aabb`` and ``object_aabb`` (CRAM released it 1.2 m above
@@ -310,17 +313,19 @@ def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
     counter's front edge onto the floor). A world model that knows neither extent
     (``LookupError``): CRAM's pose."""
     world = current_environment().world
+    frame = base_frame()
+    cram_pose = Pose(SINK_DROP_POSITION, frame=frame)
     name = object_designator.current().get("name")
     if not isinstance(name, str):
-        return SINK_DROP_POSE
+        return cram_pose
     try:
         top = world.link_aabb(SINK_SURFACE)[1][2]
         lo, hi = world.object_aabb(name)
     except LookupError:
-        return SINK_DROP_POSE
+        return cram_pose
     half = (hi[2] - lo[2]) / 2.0
-    x, y, _z = SINK_DROP_POSE.position
-    return Pose((x, y, top + half + SINK_DROP_CLEARANCE), frame="base_footprint")
+    x, y, _z = SINK_DROP_POSITION
+    return Pose((x, y, top + half + SINK_DROP_CLEARANCE), frame=frame)
 
 
 async def drop_at_sink(object_designator: ObjectDesignator) -> None:

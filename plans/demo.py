@@ -39,12 +39,18 @@ from executive import (
     an,
     current_environment,
     kitchen,
-    knowledge,
     perform,
 )
 from executive.events import Event, emit
 
-from ._common import CountedRetries, ignoring, retry_ledger, tally
+from ._common import (
+    CountedRetries,
+    arm_names,
+    arms_left_to_right,
+    ignoring,
+    retry_ledger,
+    tally,
+)
 from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
@@ -197,7 +203,7 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
 
 
 async def _initialize_or_finalize(configuration: str) -> None:
-    """Park the arms, go to the map origin, open both grippers, look forward; failures
+    """Park the arms, go to the map origin, open the grippers, look forward; failures
     ignored (CRAM's ``initialize-or-finalize``). Deviation: each step's failures are
     ignored on their own (CRAM ignored them around the whole sequence, so a failed
     ``going`` skipped the rest), and the arms are parked again last, so the robot ends
@@ -208,7 +214,8 @@ async def _initialize_or_finalize(configuration: str) -> None:
         lambda: perform(an.action(type="going", target=a.location(pose=Pose()))), failures
     )
     await ignoring(
-        lambda: perform(an.action(type="opening-gripper", gripper=("left", "right"))), failures
+        lambda: perform(an.action(type="opening-gripper", gripper=arms_left_to_right())),
+        failures,
     )
     await ignoring(lambda: perform(an.action(type="looking", direction="forward")), failures)
     await ignoring(lambda: park_arms(configuration), failures)
@@ -246,7 +253,7 @@ async def _finalize() -> None:
         "go to the origin",
         lambda: perform(an.action(type="going", target=a.location(pose=Pose()))),
     )
-    free = tuple(arm for arm in knowledge.ARMS if arm not in held)
+    free = tuple(arm for arm in arm_names() if arm not in held)
     if free:
         await _ignoring_logged(
             "open the free grippers",
@@ -261,21 +268,17 @@ async def _finalize() -> None:
 def _held() -> dict[str, str]:
     """arm -> the object its hand holds, in the world model."""
     world = current_environment().world
-    return {arm: name for arm in knowledge.ARMS if (name := world.object_in_hand(arm))}
+    return {arm: name for arm in arm_names() if (name := world.object_in_hand(arm))}
 
 
 async def _position_arms(held: Mapping[str, str]) -> None:
     """A holding arm to ``carry``, a free one to ``park`` (failures ignored, logged)."""
-    configuration = {arm: "carry" if arm in held else "park" for arm in knowledge.ARMS}
+    configuration = {
+        f"{arm}_configuration": "carry" if arm in held else "park" for arm in arms_left_to_right()
+    }
     await _ignoring_logged(
         "position the arms",
-        lambda: perform(
-            an.action(
-                type="positioning-arm",
-                left_configuration=configuration["left"],
-                right_configuration=configuration["right"],
-            )
-        ),
+        lambda: perform(an.action(type="positioning-arm", **configuration)),
     )
 
 

@@ -41,7 +41,7 @@ from executive import (
 )
 from executive.events import ContainerClosed, ContainerOpened
 
-from ._common import hand_of, perform_ignoring
+from ._common import arm_description, arm_names, base_frame, hand_of, perform_ignoring
 
 __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
 
@@ -49,9 +49,9 @@ __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container
 #: spoon by the same number).
 DEFAULT_DISTANCE = kitchen.DRAWER_OPENING
 _PREGRASP = 0.10
-_HANDLE_GRIPPER = np.array(knowledge.STANDARD_ROTATIONS["back"]) @ np.array(
-    knowledge.STANDARD_TO_PR2_ROTATION
-)
+#: The standard gripper's rotation on the handle (approaching along the handle's +x); the
+#: arm's tool frame is this combined with its ``standard_to_tool``.
+_HANDLE_STANDARD = np.array(knowledge.STANDARD_ROTATIONS["back"])
 
 
 def handle_link(container: Designator) -> str:
@@ -64,18 +64,20 @@ def handle_link(container: Designator) -> str:
 
 def _arm(d: Designator, action_type: str) -> str:
     arm = d.get("arm", "left")
-    if arm not in knowledge.ARMS:
-        raise DesignatorError(f"{d.short()}: arm must be one of {knowledge.ARMS}", d)
+    known = arm_names()
+    if arm not in known:
+        raise DesignatorError(f"{d.short()}: arm must be one of {known}", d)
     return str(arm)
 
 
-def _waypoints(handle: Pose, opening: bool, distance: float) -> tuple[Pose, ...]:
+def _waypoints(handle: Pose, opening: bool, distance: float, arm: str) -> tuple[Pose, ...]:
     sign = -1.0 if opening else 1.0
     b_t_h = handle.matrix()
+    tool = _HANDLE_STANDARD @ np.array(arm_description(arm).standard_to_tool)
     out = []
     for offset in (-_PREGRASP, 0.0, sign * distance, sign * distance - _PREGRASP):
         m = np.eye(4)
-        m[:3, :3] = _HANDLE_GRIPPER
+        m[:3, :3] = tool
         m[0, 3] = offset
         out.append(Transform.from_matrix(b_t_h @ m, handle.frame).to_pose())
     return tuple(out)
@@ -97,8 +99,9 @@ async def open_container(
     projection's grip test only counts contacts with items, not kitchen links, so a
     ``gripping`` of the handle always fails there."""
     pre, at, pulled, away = waypoints
+    widest = arm_description(arm).gripper.max_opening
     await cpl.par(
-        cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=0.1))),
+        cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=widest))),
         cpl.tag("reach", perform(_arm_action("reaching", arm, [pre]))),
     )
     await perform(_arm_action("grasping", arm, [at]))
@@ -164,16 +167,17 @@ def _container_rule(action_type: str) -> Any:
         distance = _distance(d, container, opening)
         link = handle_link(container)
         try:
-            handle = current_environment().world.link_pose(link, "base_footprint")
+            handle = current_environment().world.link_pose(link, base_frame())
         except LookupError as exc:
             raise DesignatorError(f"{d.short()}: {exc}", d) from None
+        arm = _arm(d, action_type)
         yield (
             open_container if opening else close_container,
             {
                 "container": container,
-                "arm": _arm(d, action_type),
+                "arm": arm,
                 "distance": distance,
-                "waypoints": _waypoints(handle, opening, distance),
+                "waypoints": _waypoints(handle, opening, distance, arm),
                 "opening": opening,
             },
         )

@@ -39,7 +39,6 @@ from executive import (
     a,
     an,
     current_environment,
-    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -48,10 +47,11 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    arm_names,
     the_base,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _given_arm, _location
+from ._designators import _given_arm, _location, robot_name
 from .checks import check_environment_manipulation_collisions
 from .environment import DEFAULT_DISTANCE, handle_link
 from .navigation import BaseStoppedShort
@@ -92,7 +92,7 @@ async def manipulate_environment(
         except LookupError as error:
             raise DesignatorError(f"{container.short()}: {error}", container) from error
         base_poses = SolutionCursor(
-            a.location(reachable_for=ROBOT, location=a.location(pose=handle), arm=arm)
+            a.location(reachable_for=robot_name(), location=a.location(pose=handle), arm=arm)
         )
         allowed = (link, str(container.get("urdf-name")))
 
@@ -228,10 +228,11 @@ def opening_of(container: ObjectDesignator) -> float | None:
 
 
 def free_arm(preferred: str = "left") -> str | None:
-    """``preferred`` if its hand holds nothing (in the world model), else another empty
-    hand, else None."""
+    """``preferred`` if the robot has that hand and it holds nothing (in the world model),
+    else another empty hand, else None (a one-armed robot: its hand or None)."""
     world = current_environment().world
-    for arm in (preferred, *(other for other in knowledge.ARMS if other != preferred)):
+    arms = arm_names()
+    for arm in (*(n for n in arms if n == preferred), *(n for n in arms if n != preferred)):
         if world.object_in_hand(arm) is None:
             return arm
     return None

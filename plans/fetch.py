@@ -60,7 +60,7 @@ from ._common import (
     the_base,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _given_arm, _object, default_of, learned_base
+from ._designators import _check_places, _given_arm, _object, default_of, learned_base, robot_name
 from .atomic import park_arms
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
@@ -141,7 +141,7 @@ async def fetch(
             where = a.location(among=floor_base_poses(object_pose))
         else:
             where = a.location(
-                reachable_for=ROBOT,
+                reachable_for=robot_name(),
                 location=a.location(pose=object_pose),
                 arm=arm,
                 **learned_base("picking-up", object_designator),

@@ -44,7 +44,6 @@ from executive import (
     a,
     an,
     current_environment,
-    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -53,8 +52,10 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    base_frame,
     perform_ignoring,
     the_base,
+    the_robot,
     to_base,
     to_map,
     translating_failures,
@@ -273,7 +274,7 @@ async def back_off(distance: float = BACK_OFF) -> bool:
     island). Returns whether it drove (False: the belief says the robot cannot stand
     there)."""
     world = current_environment().world
-    goal = to_map(Pose((-distance, 0.0, 0.0), frame="base_footprint"))
+    goal = to_map(Pose((-distance, 0.0, 0.0), frame=base_frame()))
     probe = world.probe_base_pose(goal)
     if not probe.ok:
         log.info("no backing off: %s", probe.failure)
@@ -303,9 +304,12 @@ async def park_clear(configuration: str = "carry") -> None:
     re-probed; the park then happens wherever the base is (logged above)."""
     world = current_environment().world
     if isinstance(world, ArmSweepProbe):
-        joints = {arm: knowledge.arm_configuration(configuration, arm) for arm in knowledge.ARMS}
+        robot = the_robot()
+        joints = {arm.name: arm.state(configuration) for arm in robot.arms}
         for _ in range(PARK_BACK_OFFS):
-            result = world.probe_arm_configuration(left=joints["left"], right=joints["right"])
+            result = world.probe_arm_configuration(
+                left=joints.get("left"), right=joints.get("right")
+            )
             if result.ok:
                 break
             log.info("backing off before parking: %s", result.failure)

@@ -5,7 +5,16 @@ grasp-minor (the type's grasps in :mod:`executive.knowledge` order; an environme
 ``preferences``, e.g. learned priors, reorder the (arm, grasp) pairs); the object must have
 been perceived (its newest designator carries a ``transform`` base -> object, or a
 ``pose``). Waypoints: :func:`executive.knowledge.grasp_poses` (pregrasp, 2nd pregrasp,
-grasp, lift, 2nd lift), in ``base_footprint``.
+grasp, lift, 2nd lift), in the robot's base frame.
+
+The arms, their tool frames, the link a held object hangs from and the standard-gripper ->
+tool rotation each grasp combines with are the environment's robot's
+(:attr:`executive.Environment.robot`): "right, then left" is the PR2-like robot's order;
+a one-armed robot has only its ``left`` arm to try. The gripper opens to the type's
+opening (object knowledge), but no wider than the arm's gripper opens
+(:attr:`executive.GripperDescription.max_opening`). Deliberate difference from CRAM, whose
+opening is the type's whatever the robot: a Panda's 0.08 m gripper cannot open to the
+0.10 m of a cup, and ``setting-gripper`` refuses an opening out of range.
 
 ``placing (object O)? (arm A)? (target L)?``: the arms holding something (or the given
 arm); the target's every solution (else the object's current pose); the five waypoints at
@@ -66,7 +75,17 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached, object_name
 
-from ._common import hand_of, object_label, perform_ignoring, to_base, tool_frame, wrist_link
+from ._common import (
+    arm_description,
+    arm_names,
+    base_frame,
+    hand_link_of,
+    hand_of,
+    object_label,
+    perform_ignoring,
+    to_base,
+    tool_frame_of,
+)
 from ._designators import _given_arm
 
 _log = logging.getLogger(__name__)
@@ -137,7 +156,7 @@ async def pick_up(
         raise failure
 
     await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
-    emit(ObjectAttached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectAttached(object_designator, arm, hand_link_of(arm)))
 
     async def lift() -> None:
         await perform(_arm_action("lifting", arm, lift_poses))
@@ -234,7 +253,7 @@ def object_lost(object_designator: Any, arm: str, during: str, failure: BaseExce
     """The object is no longer in ``arm``: tell the world model (``ObjectDetached``: the
     belief lets it fall where the hand is, to be perceived again) and raise
     :class:`~executive.GripperClosedCompletely` (from ``failure``)."""
-    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
     raise GripperClosedCompletely(
         f"{object_name(object_designator)} was lost from the {arm} gripper while {during}",
         action=during,
@@ -333,7 +352,7 @@ def _picking_up(d: Designator) -> Iterator[Any]:
             m[:3, :3] = Transform((0.0, 0.0, 0.0), yaw_quaternion(yaw)).matrix()[:3, :3]
             frames.append(Transform.from_matrix(m, transform.frame, transform.child_frame))
     arm_given = _given_arm(d)
-    arms = (arm_given,) if arm_given is not None else knowledge.ARMS
+    arms = (arm_given,) if arm_given is not None else arm_names()
     grasp_names = (d["grasp"],) if "grasp" in d else knowledge.grasps(otype)
     # the arm-major, grasp-minor order, reordered by what experience taught (a stable
     # sort of the (arm, grasp) pairs: the environment's preferences, None: unchanged)
@@ -343,9 +362,13 @@ def _picking_up(d: Designator) -> Iterator[Any]:
         pairs = _checked_order(pairs, preferences.order_choices("picking-up", otype, pairs))
     for arm, grasp in pairs:
         assert grasp is not None
+        hand = arm_description(arm)
+        standard_to_tool = hand.standard_to_tool
+        # the type's opening, but no wider than this arm's gripper opens
+        widest = hand.gripper.max_opening
         for grasp_name, frame in ((grasp, f) for f in frames):
             try:
-                poses = knowledge.grasp_poses(otype, grasp_name, frame)
+                poses = knowledge.grasp_poses(otype, grasp_name, frame, standard_to_tool)
             except LookupError as exc:
                 raise DesignatorError(f"{d.short()}: {exc}", d) from None
             for reach in _approaches(poses[:2]):
@@ -355,7 +378,7 @@ def _picking_up(d: Designator) -> Iterator[Any]:
                         "object_designator": obj,
                         "arm": arm,
                         "grasp": grasp_name,
-                        "opening": info.opening,
+                        "opening": min(info.opening, widest),
                         "effort": info.effort,
                         "reach_poses": reach,
                         "grasp_poses": (poses[2],),
@@ -396,15 +419,18 @@ async def place(
     await perform(_arm_action("reaching", arm, reach_poses))
     await perform_ignoring(_arm_action("putting", arm, put_poses), ManipulationLowLevelFailure)
     await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
-    emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+    emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
     await perform_ignoring(
         _arm_action("retracting", arm, retract_poses), ManipulationLowLevelFailure
     )
 
 
-def _closest_grasp(object_type: str, rotation: np.ndarray) -> knowledge.Grasp:
-    """The type's grasp whose tool orientation (in the object frame) is closest."""
-    g_prime_t_g = np.array(knowledge.STANDARD_TO_PR2_ROTATION)
+def _closest_grasp(
+    object_type: str, rotation: np.ndarray, standard_to_tool: Sequence[Sequence[float]]
+) -> knowledge.Grasp:
+    """The type's grasp whose tool orientation (in the object frame) is closest, for a
+    tool frame ``standard_to_tool`` (rows) from the standard gripper."""
+    g_prime_t_g = np.array(standard_to_tool)
 
     def angle(g: knowledge.Grasp) -> float:
         delta = (np.array(g.rotation) @ g_prime_t_g).T @ rotation
@@ -413,14 +439,19 @@ def _closest_grasp(object_type: str, rotation: np.ndarray) -> knowledge.Grasp:
     return min(knowledge.object_knowledge(object_type).grasps, key=angle)
 
 
-def _put_back_pose(object_type: str, object_t_tool: Transform, held: Pose) -> Pose:
+def _put_back_pose(
+    object_type: str,
+    object_t_tool: Transform,
+    held: Pose,
+    standard_to_tool: Sequence[Sequence[float]],
+) -> Pose:
     """Where a placing without a target puts the object: straight back down from where
     the hand holds it by the grasp's lift offset (object frame), i.e. where a pick-up
     lifted it from. Deliberate difference: CRAM's targetless placing puts the object
     "down" at the pose it is held at, reaching above it first, which takes an arm that
     just lifted an object at the limit of its reach beyond that limit (the seed's cup,
     held 1.07 m high)."""
-    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3])
+    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3], standard_to_tool)
     lowered = held.matrix() @ Transform(tuple(-v for v in g.second_lift_offset)).matrix()
     return Transform.from_matrix(lowered, held.frame).to_pose()
 
@@ -447,12 +478,18 @@ def _yaw_variants(object_type: str, target: Pose, held: Pose, free_yaw: bool) ->
 
 
 def placing_waypoints(
-    object_type: str, object_t_tool: Transform, target_in_base: Pose
+    object_type: str,
+    object_t_tool: Transform,
+    target_in_base: Pose,
+    standard_to_tool: Sequence[Sequence[float]],
 ) -> tuple[str, list[Pose]]:
     """The grasp closest to the measured tool pose in the object frame, and the five
     waypoints at the target in CRAM's picking order (pregrasp ... 2nd lift): the measured
-    gripper-in-object transform, with that grasp's offsets added in the object frame."""
-    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3])
+    gripper-in-object transform, with that grasp's offsets added in the object frame.
+    ``standard_to_tool``: the holding arm's
+    :attr:`executive.ArmDescription.standard_to_tool` (which grasp is closest depends on
+    how the robot's tool frame sits on the standard gripper)."""
+    g = _closest_grasp(object_type, object_t_tool.matrix()[:3, :3], standard_to_tool)
     b_t_o = target_in_base.matrix()
     o_t_g = object_t_tool.matrix()
     out = []
@@ -505,7 +542,8 @@ def _placing(d: Designator) -> Iterator[Any]:
     world = current_environment().world
     given = d.get("object")
     arm_given = _given_arm(d)
-    arms = (arm_given,) if arm_given is not None else knowledge.ARMS
+    arms = (arm_given,) if arm_given is not None else arm_names()
+    base = base_frame()
     in_hand = [(arm, world.object_in_hand(arm)) for arm in arms]
     held = [(arm, n) for arm, n in in_hand if n is not None]
     if isinstance(given, ObjectDesignator) and given.current().get("name"):
@@ -519,21 +557,24 @@ def _placing(d: Designator) -> Iterator[Any]:
         obj = given.current() if isinstance(given, ObjectDesignator) else an.object(name=name)
         otype = world.object_type(name)
         obj_map = world.object_pose(name, "map").to_transform()
-        tool_map = world.link_pose(tool_frame(arm), "map").to_transform()
+        tool_map = world.link_pose(tool_frame_of(arm), "map").to_transform()
         object_t_tool = obj_map.inverse() * tool_map
+        standard_to_tool = arm_description(arm).standard_to_tool
         if target is None:
-            held_now = world.object_pose(name, "base_footprint")
-            targets: Any = [_put_back_pose(otype, object_t_tool, held_now)]
+            held_now = world.object_pose(name, base)
+            targets: Any = [_put_back_pose(otype, object_t_tool, held_now, standard_to_tool)]
         elif isinstance(target, LocationDesignator):
             targets = target.current().solutions()
         elif isinstance(target, Pose):
             targets = [target]
         else:
             raise DesignatorError(f"{d.short()}: target must be a location or a pose", d)
-        held_pose = world.object_pose(name, "base_footprint")
+        held_pose = world.object_pose(name, base)
         for target_pose in targets:
             for variant in _yaw_variants(otype, to_base(target_pose), held_pose, free_yaw):
-                grasp_name, poses = placing_waypoints(otype, object_t_tool, variant)
+                grasp_name, poses = placing_waypoints(
+                    otype, object_t_tool, variant, standard_to_tool
+                )
                 poses.reverse()
                 yield (
                     place,
@@ -559,7 +600,7 @@ async def release_held(object_designator: Any) -> None:
     in the hand for the rest of the demo."""
     world = current_environment().world
     name = object_name(object_designator)
-    for arm in knowledge.ARMS:
+    for arm in arm_names():
         if world.object_in_hand(arm) == name:
             await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
-            emit(ObjectDetached(object_designator, arm, wrist_link(arm)))
+            emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))

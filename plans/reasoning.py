@@ -49,9 +49,8 @@ from executive import (
 )
 from executive.events import ObjectAttached, ObjectDetached
 
-from ._designators import ROBOT, learned_base
+from ._designators import learned_base, robot_name
 from ._exploration import (
-    ARMS,
     POOL_PER_RUN,
     Exploration,
     learned_weight,
@@ -60,7 +59,6 @@ from ._exploration import (
 from ._imagination import can_imagine, imagine, run_for_real
 
 __all__ = [
-    "ARMS",
     "DEFAULT_RANKING",
     "POOL_PER_RUN",
     "Exploration",
@@ -125,7 +123,7 @@ class FetchAndDeliver:
         arm = exploration.arm(self.arm)
         spot = a.location(of_item_object=self.object.current().get("name")).reference()
         reachable = a.location(
-            reachable_for=ROBOT,
+            reachable_for=robot_name(),
             location=a.location(pose=spot),
             arm=self.arm,
             **learned_base("picking-up", self.object),

@@ -34,7 +34,6 @@ from executive import (
     a,
     an,
     current_environment,
-    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -43,21 +42,20 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    arm_names,
     object_label,
     the_base,
+    the_robot,
     translating_designator_errors,
 )
-from ._designators import ROBOT, _check_places, _location, _object, default_of
+from ._designators import _check_places, _location, _object, default_of, robot_name
 from .atomic import park_arms
 from .viewpoints import navigate_to_best_viewpoint
 
-__all__ = ["SEARCH_FAILURES", "SEARCH_TORSO_HEIGHT", "arms_out_of_view", "search_for_object"]
+__all__ = ["SEARCH_FAILURES", "arms_out_of_view", "search_for_object"]
 
 
 # ----------------------------------------------------------------------------- searching
-#: Torso height (m) from which ``searching`` looks a second time (the upper limit: camera
-#: at ~1.6 m).
-SEARCH_TORSO_HEIGHT = 0.33
 
 #: The failures after which ``searching`` tries the next sample of its location.
 SEARCH_FAILURES = (NavigationGoalInCollision, LookingHighLevelFailure, PerceptionLowLevelFailure)
@@ -87,7 +85,7 @@ async def search_for_object(
     @retry_scope(SEARCH_FAILURES, spots, CountedRetries(retries, "search"), rethrow=nowhere)
     async def look_there() -> ObjectDesignator:
         spot = spots.current.reference()
-        view = a.location(visible_for=ROBOT, location=a.location(pose=spot))
+        view = a.location(visible_for=robot_name(), location=a.location(pose=spot))
         if viewpoint_reasoning:
             await navigate_to_best_viewpoint(object_designator, spots.current, spot, view)
         else:
@@ -122,14 +120,16 @@ async def arms_out_of_view() -> None:
     counter (the spoon's visibility was 0.33 in ``carry`` and 1.0 in ``park`` from the
     same base pose)."""
     world = current_environment().world
-    if any(world.object_in_hand(arm) for arm in knowledge.ARMS):
+    if any(world.object_in_hand(arm) for arm in arm_names()):
         return
     await park_arms("park")
 
 
 async def _look_from_higher(spot: Pose) -> None:
-    """Raise the torso to :data:`SEARCH_TORSO_HEIGHT` and turn towards ``spot`` again."""
-    await perform(an.action(type="moving-torso", joint_angle=SEARCH_TORSO_HEIGHT))
+    """Raise the torso to its upper limit (the robot description's
+    :attr:`executive.TorsoDescription.upper`; the PR2-like robot's camera is then at
+    ~1.6 m) and turn towards ``spot`` again."""
+    await perform(an.action(type="moving-torso", joint_angle=the_robot().torso.upper))
     await perform(an.action(type="turning-towards", target=a.location(pose=spot)))
 
 
@@ -166,7 +166,7 @@ async def _look_from_higher(spot: Pose) -> None:
             Retry(
                 1,
                 (PerceptionLowLevelFailure,),
-                f"raise the torso to {SEARCH_TORSO_HEIGHT} m, turn towards, detect again",
+                "raise the torso to its upper limit, turn towards, detect again",
                 counter="search-torso",
             ),
         ),

@@ -34,6 +34,7 @@ from executive.events import (
     object_name,
 )
 from executive.testing import FakeProcessModule, InMemoryWorld
+from robots.pr2 import DESCRIPTION as PR2
 
 
 def test_two_concurrent_environments_do_not_touch_each_other(mrun: Any) -> None:
@@ -153,7 +154,9 @@ def test_outside_any_environment() -> None:
 
 
 def test_in_memory_world_is_a_world_model() -> None:
-    world = InMemoryWorld({"cup": Pose((2, 1, 0))}, robot_pose=Pose.from_xyz_yaw(1, 1, 0))
+    world = InMemoryWorld(
+        {"cup": Pose((2, 1, 0))}, robot_pose=Pose.from_xyz_yaw(1, 1, 0), robot=PR2
+    )
     assert isinstance(world, WorldModel)
     assert world.object_pose("cup").position == (2.0, 1.0, 0.0)
     in_base = world.object_pose("cup", frame="base_footprint")

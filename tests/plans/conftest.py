@@ -12,8 +12,9 @@ import pytest
 import executive
 import plans  # noqa: F401 - registers the action rules
 from cpl.testing import MockClock, run_guarded
-from executive import Pose, RuleSet, static_rules
+from executive import Pose, RobotDescription, RuleSet, static_rules
 from executive.testing import FakeProcessModule, InMemoryWorld
+from robots.pr2 import DESCRIPTION as PR2
 
 HANDLE = "sink_area_left_upper_drawer_handle"
 DRAWER = executive.an.object(
@@ -65,6 +66,11 @@ class Robot:
         return run_guarded(main, clock=MockClock())  # a hang fails, with its task tree
 
 
+def _base(world: InMemoryWorld) -> str:
+    assert world.robot is not None, "plan tests need InMemoryWorld(robot=...)"
+    return world.robot.base_frame
+
+
 def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.Designator:
     wanted = motion.reference().arguments["object"]
     for name, obj in world.objects.items():
@@ -72,7 +78,7 @@ def _perceive(world: InMemoryWorld, motion: executive.Designator) -> executive.D
             return wanted.copy(
                 name=name,
                 pose=world.object_pose(name),
-                transform=world.object_pose(name, "base_footprint").to_transform(name),
+                transform=world.object_pose(name, _base(world)).to_transform(name),
             )
     raise executive.PerceptionObjectNotFound(object=wanted)
 
@@ -88,10 +94,11 @@ def make_robot(world: InMemoryWorld, **fail_on: dict[int, Any]) -> Robot:
         command, args = m.reference()
         if command != "move-tcp":
             return
-        for arm, prefix in (("left", "l"), ("right", "r")):
-            if args[arm] is not None:
-                for link in ("gripper_tool_frame", "wrist_roll_link"):  # one frame, here
-                    world.set_link_pose(f"{prefix}_{link}", args[arm])
+        assert world.robot is not None, "plan tests need InMemoryWorld(robot=...)"
+        for arm in world.robot.arms:
+            if args[arm.name] is not None:
+                for link in (arm.tool_frame, arm.hand_link):  # one frame, here
+                    world.set_link_pose(link, args[arm.name])
 
     robot = Robot(world)
     specs = {
@@ -113,20 +120,29 @@ def make_robot(world: InMemoryWorld, **fail_on: dict[int, Any]) -> Robot:
     return robot
 
 
-@pytest.fixture
-def cup_world() -> InMemoryWorld:
+def hand_links(robot: RobotDescription = PR2) -> dict[str, Pose]:
+    """Each arm's tool frame and hand link, 0.3 m ahead of the base, 1 m high, the left
+    arm's 0.2 m to the left, the right arm's 0.2 m to the right (base frame)."""
+    return {
+        link: Pose((0.3, 0.2 if arm.name == "left" else -0.2, 1.0), frame=robot.base_frame)
+        for arm in robot.arms
+        for link in (arm.tool_frame, arm.hand_link)
+    }
+
+
+def cup_world_for(robot: RobotDescription) -> InMemoryWorld:
+    """The cup world (a cup on the table, a drawer handle, the hands) for ``robot``."""
     return InMemoryWorld(
         objects={"cup-1": Pose((1.3, 0.6, 0.9))},
         types={"cup-1": "cup"},
-        links={
-            HANDLE: Pose((1.1, 1.0, 0.78)),
-            **{
-                f"{p}_{link}": Pose((0.3, y, 1.0), frame="base_footprint")
-                for p, y in (("l", 0.2), ("r", -0.2))
-                for link in ("gripper_tool_frame", "wrist_roll_link")
-            },
-        },
+        links={HANDLE: Pose((1.1, 1.0, 0.78)), **hand_links(robot)},
+        robot=robot,
     )
+
+
+@pytest.fixture
+def cup_world() -> InMemoryWorld:
+    return cup_world_for(PR2)
 
 
 async def transport_for_real(true: Any, belief: Any, object_type: str, name: str) -> Any:

@@ -42,6 +42,7 @@ def _world(cup_world: InMemoryWorld, opened: float) -> _DrawerWorld:
         objects={n: o.pose for n, o in cup_world.objects.items()},
         types={n: o.type for n, o in cup_world.objects.items() if o.type is not None},
         links=cup_world.links,
+        robot=cup_world.robot,
     )
     world.joint_states[DRAWER_LINK] = opened
     assert isinstance(world, ContainerStates)

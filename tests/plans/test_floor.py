@@ -10,7 +10,7 @@ import math
 from typing import Any
 
 import pytest
-from conftest import make_robot, transport_for_real
+from conftest import PR2, hand_links, make_robot, transport_for_real
 
 import plans  # noqa: F401 - the action rules
 from executive import ObjectNowhereToBeFound, Pose, an, perform
@@ -54,11 +54,8 @@ def _floor_world() -> InMemoryWorld:
     world = InMemoryWorld(
         objects={"cup-1": Pose((1.3, 0.6, 0.05))},
         types={"cup-1": "cup"},
-        links={
-            f"{p}_{link}": Pose((0.3, y, 1.0), frame="base_footprint")
-            for p, y in (("l", 0.2), ("r", -0.2))
-            for link in ("gripper_tool_frame", "wrist_roll_link")
-        },
+        links=hand_links(PR2),
+        robot=PR2,
     )
     return world
 

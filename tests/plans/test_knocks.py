@@ -14,6 +14,7 @@ import pytest
 import plans  # noqa: F401 - the action rules
 from executive import Pose, a, an, current_environment, perform
 from projection import FaultProfile, make_world_pair, settle, with_real_robot
+from robots.pr2 import DESCRIPTION as PR2
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 CUP_LOOK = Pose((1.3, 0.6, 0.9))
@@ -88,18 +89,17 @@ def _scripted_park_probe(world: Any, ok: bool, failures: int = 1000) -> list[dic
 def test_a_park_that_would_sweep_through_an_object_backs_off_first(cup_world: Any) -> None:
     from conftest import make_robot
 
-    from executive import knowledge
     from plans.navigation import park_clear
 
     robot = make_robot(cup_world)
     calls = _scripted_park_probe(cup_world, ok=False, failures=1)
     robot.run(park_clear)
-    carry = {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
+    carry = {a: PR2.arm(a).state("carry") for a in ("left", "right")}
     assert calls == [carry, carry]  # re-probed after the back-off: clear
     (drive,) = robot.calls("navigation")  # the back-off, then the park
     assert drive.reference().arguments["pose"].isclose(Pose((-0.25, 0.0, 0.0)))
     (park,) = robot.calls("arms")
-    assert park.reference().arguments["right"] == knowledge.arm_configuration("carry", "right")
+    assert park.reference().arguments["right"] == PR2.arm("right").state("carry")
 
 
 def test_a_park_that_stays_blocked_backs_off_at_most_twice_then_parks(cup_world: Any) -> None:

@@ -161,7 +161,7 @@ def test_an_unknown_object_type_names_the_known_types_before_the_robot_moves(
     ("values", "message"),
     [
         ((5.0,) * 7, r"outside its limits \["),
-        ((0.0, 0.0, 0.0), r"7 finite joint values \(shoulder_pan_joint"),
+        ((0.0, 0.0, 0.0), r"7 finite joint values \(l_shoulder_pan_joint"),
         ((0.0,) * 8, "7 finite joint values"),
     ],
 )

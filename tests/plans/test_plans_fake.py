@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 import pytest
-from conftest import DRAWER, HANDLE, make_robot
+from conftest import DRAWER, HANDLE, PR2, make_robot
 
 import cpl
 import executive
@@ -38,6 +38,9 @@ from plans import retry_ledger
 from plans.pick_place import placing_waypoints
 
 CUP = Pose((1.3, 0.6, 0.9))
+
+#: The PR2-like robot's standard-gripper -> tool rotation (both arms have the same).
+TOOL = PR2.arm("right").standard_to_tool
 
 
 def perceived_cup(world: InMemoryWorld) -> executive.ObjectDesignator:
@@ -106,7 +109,7 @@ def test_positioning_arm_uses_knowledge_and_ignores_failures(cup_world):
     robot = make_robot(cup_world, arms={1: ManipulationPoseUnreachable})
     robot.run(perform, an.action(type="positioning-arm", left_configuration="park"))
     args = robot.calls("arms")[0].reference().arguments
-    assert args["left"] == knowledge.arm_configuration("park", "left") and args["right"] is None
+    assert args["left"] == PR2.arm("left").state("park") and args["right"] is None
 
 
 # ------------------------------------------------------------------------ pick and place
@@ -180,7 +183,9 @@ def test_picking_up_sequence_and_attachment(cup_world):
     assert attached[0].arm == "left" and cup_world.object_in_hand("left") == "cup-1"
     arguments = action.reference().arguments
     assert isinstance(arguments, dict)
-    expected = knowledge.grasp_poses("cup", "back", arguments["object_designator"]["transform"])
+    expected = knowledge.grasp_poses(
+        "cup", "back", arguments["object_designator"]["transform"], TOOL
+    )
     assert robot.calls("arms")[4].reference().arguments["left"] == expected[4]
 
 
@@ -208,7 +213,7 @@ def test_placing_derives_the_grasp_from_the_object_in_hand(cup_world):
 
     ground = robot.run(grounding)
     assert ground.arguments["grasp"] == "front" and ground.arguments["arm"] == "right"
-    nominal = knowledge.grasp_poses("cup", "front", target.to_transform())
+    nominal = knowledge.grasp_poses("cup", "front", target.to_transform(), TOOL)
     assert ground.arguments["put_poses"][0].isclose(nominal[2], 1e-6, 1e-6)
     robot.run(perform, an.action(type="placing", target=a.location(pose=target)))
     assert cup_world.attached() == []
@@ -216,11 +221,11 @@ def test_placing_derives_the_grasp_from_the_object_in_hand(cup_world):
 
 
 def test_placing_waypoints_match_grasp_poses():
-    obj_t_tool = knowledge.grasp_poses("bowl", "top", Pose().to_transform())[2].to_transform()
+    obj_t_tool = knowledge.grasp_poses("bowl", "top", Pose().to_transform(), TOOL)[2].to_transform()
     target = Pose.from_xyz_yaw(0.7, 0.1, 0.8, 0.3, frame="base_footprint")
-    name, poses = placing_waypoints("bowl", obj_t_tool, target)
+    name, poses = placing_waypoints("bowl", obj_t_tool, target, TOOL)
     assert name == "top"
-    for got, want in zip(poses, knowledge.grasp_poses("bowl", "top", target.to_transform())):
+    for got, want in zip(poses, knowledge.grasp_poses("bowl", "top", target.to_transform(), TOOL)):
         assert got.isclose(want, 1e-6, 1e-6)
 
 
@@ -453,6 +458,7 @@ def test_accessing_relocates_when_the_drawer_would_be_pushed_into_the_robot(cup_
         objects={n: o.pose for n, o in cup_world.objects.items()},
         types={n: o.type for n, o in cup_world.objects.items()},
         links=cup_world.links,
+        robot=cup_world.robot,
     )
     assert isinstance(world, ContainerOpeningProbe)
     robot = make_robot(world)
@@ -473,7 +479,7 @@ def test_accessing_gives_up_after_ten_relocations(cup_world):
 
 
 def test_accessing_without_a_handle_is_impossible():
-    world = InMemoryWorld()
+    world = InMemoryWorld(robot=PR2)
     robot = make_robot(world)
     with pytest.raises(EnvironmentManipulationImpossible, match=r"^cannot close "):
         robot.run(perform, an.action(type="sealing", location=a.location(in_=DRAWER)))

@@ -11,6 +11,7 @@ import cpl
 import plans
 from executive import Pose, a, an, current_environment, knowledge, perform
 from executive.events import ContainerOpened, ObjectAttached
+from robots.pr2 import DESCRIPTION as PR2
 
 projection = pytest.importorskip("projection")
 
@@ -150,10 +151,8 @@ def test_table_setting(mrun, seed):
     assert world.joint_position("sink_area_left_upper_drawer_main_joint") == pytest.approx(
         0, abs=1e-6
     )
-    for arm in knowledge.ARMS:
-        assert world.arm_joints(arm) == pytest.approx(
-            knowledge.arm_configuration("park", arm), abs=1e-3
-        )
+    for arm in PR2.arm_names:
+        assert world.arm_joints(arm) == pytest.approx(PR2.arm(arm).state("park"), abs=1e-3)
     moves = settled_moves(world, [o.name for o in outcomes.values()])
     assert max(moves.values()) < 0.02, moves
 

@@ -19,7 +19,7 @@ from contextlib import asynccontextmanager
 from typing import Any
 
 import pytest
-from conftest import base_poses, location_generator, make_robot
+from conftest import PR2, base_poses, hand_links, location_generator, make_robot
 
 import cpl
 import executive
@@ -123,11 +123,8 @@ def setup(offsets: list[float] | None = None, **imagination_fail_on: Any) -> Any
     world = InMemoryWorld(
         objects={"cup-1": CUP},
         types={"cup-1": "cup"},
-        links={
-            f"{p}_{link}": Pose((0.3, y, 1.0), frame="base_footprint")
-            for p, y in (("l", 0.2), ("r", -0.2))
-            for link in ("gripper_tool_frame", "wrist_roll_link")
-        },
+        links=hand_links(PR2),
+        robot=PR2,
     )
     real = make_robot(world)
     dream = make_robot(world, **imagination_fail_on)

@@ -5,7 +5,7 @@ world model and fetched again, objects not found retried after the others have m
 from __future__ import annotations
 
 import pytest
-from conftest import make_robot
+from conftest import PR2, make_robot
 from test_plans_fake import perceived_cup  # type: ignore[import-not-found]
 
 from executive import (
@@ -165,7 +165,7 @@ def _grip_width(otype: str, grasp: str, arm: str) -> float | None:
     try:
         world.spawn_object("o", otype, Pose((0.6, 0.0, 0.9)))
         tf = world.object_pose("o", "base_footprint").to_transform("o")
-        poses = knowledge.grasp_poses(otype, grasp, tf)
+        poses = knowledge.grasp_poses(otype, grasp, tf, PR2.arm("right").standard_to_tool)
         try:
             world.move_tcp(**{arm: poses[2]})
         except Exception:  # this arm cannot reach the grasp from here
@@ -251,7 +251,7 @@ def test_fetching_relocates_when_its_base_pose_is_never_reached(cup_world):
 
 # ------------------------------------------------------------- arms out of the view
 def test_searching_looks_with_the_arms_parked_at_the_sides(cup_world):
-    from executive import a, knowledge
+    from executive import a
 
     robot = make_robot(cup_world)
     robot.run(
@@ -259,8 +259,8 @@ def test_searching_looks_with_the_arms_parked_at_the_sides(cup_world):
         an.action(type="searching", object=an.object(type="cup"), location=a.location(spots=3)),
     )
     joints = [m.reference().arguments for m in robot.calls("arms") if m.type == "moving-arm-joints"]
-    assert joints[-1]["left"] == knowledge.arm_configuration("park", "left")
-    assert joints[-1]["right"] == knowledge.arm_configuration("park", "right")
+    assert joints[-1]["left"] == PR2.arm("left").state("park")
+    assert joints[-1]["right"] == PR2.arm("right").state("park")
 
 
 def test_a_base_that_stopped_within_tolerance_of_its_goal_is_there(cup_world):

@@ -10,7 +10,7 @@ from typing import Any
 import cpl
 import plans  # noqa: F401 - registers the action rules
 from cpl.testing import MockClock
-from executive import Pose, a, an
+from executive import Pose, a, an, current_environment
 from plans.viewpoints import STAND_IN, look_from_best, navigate_to_best_viewpoint
 from projection import FaultProfile, make_world_pair, with_real_robot
 
@@ -118,7 +118,6 @@ def test_the_search_chooses_its_viewpoint_by_projection_and_finds_the_cup():
 
 def test_without_an_imagination_that_can_spawn_the_search_navigates_as_before():
     """Inside projection (or with a fake world) it is a pass-through: nothing imagined."""
-    from plans._designators import ROBOT
     from projection import with_projected_robot
 
     true, belief = make_world_pair(0, objects={})
@@ -126,7 +125,8 @@ def test_without_an_imagination_that_can_spawn_the_search_navigates_as_before():
 
         async def main() -> Any:
             async with with_projected_robot(belief):
-                view = a.location(visible_for=ROBOT, location=a.location(pose=SPOT))
+                robot = current_environment().robot.name
+                view = a.location(visible_for=robot, location=a.location(pose=SPOT))
                 return await navigate_to_best_viewpoint(
                     an.object(type="cup"), a.location(pose=SPOT), SPOT, view
                 )

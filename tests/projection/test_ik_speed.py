@@ -15,6 +15,7 @@ from executive import knowledge
 from executive._pose import Pose
 from executive.failures import ManipulationPoseUnreachable
 from projection import World
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 DOWN = (0.0, 0.7071068, 0.0, 0.7071068)  # tool x pointing down
@@ -137,7 +138,7 @@ def _wrist(local: tuple[tuple[float, ...], tuple[float, ...]]) -> tuple[float, f
 def test_precheck_accepts_what_the_solver_reaches(sink: World) -> None:
     obj = Pose((0.55, -0.1, 0.93), frame="base_footprint").to_transform("cup")
     for g in knowledge.grasps("cup"):
-        for wp in knowledge.grasp_poses("cup", g, obj):
+        for wp in knowledge.grasp_poses("cup", g, obj, PR2_TOOL):
             start = sink.snapshot()
             try:
                 sink.move_tcp(right=wp)

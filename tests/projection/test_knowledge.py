@@ -7,6 +7,7 @@ import pytest
 
 from executive import knowledge
 from executive._pose import Pose
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 
 def test_grasp_enumeration_order() -> None:
@@ -28,7 +29,7 @@ def test_unknown_type_and_grasp_name_the_known_ones() -> None:
 
 def test_back_grasp_of_an_object_ahead_is_the_identity_tool_rotation() -> None:
     obj = Pose((0.6, 0.0, 0.9), frame="base_footprint").to_transform("cup")
-    poses = knowledge.grasp_poses("cup", "back", obj)
+    poses = knowledge.grasp_poses("cup", "back", obj, PR2_TOOL)
     assert len(poses) == 5 and all(p.frame == "base_footprint" for p in poses)
     pre, pre2, grasp, lift, lift2 = poses
     assert grasp.position == pytest.approx((0.62, 0.0, 0.93))
@@ -42,7 +43,7 @@ def test_back_grasp_of_an_object_ahead_is_the_identity_tool_rotation() -> None:
 def test_offsets_are_in_the_object_frame() -> None:
     # milk turned by pi: its back grasp comes from +x in base
     obj = Pose.from_xyz_yaw(0.6, 0.0, 0.95, np.pi, "base_footprint").to_transform("milk")
-    pre, _, grasp, _, _ = knowledge.grasp_poses("milk", "back", obj)
+    pre, _, grasp, _, _ = knowledge.grasp_poses("milk", "back", obj, PR2_TOOL)
     assert grasp.position == pytest.approx((0.59, 0.0, 0.95), abs=1e-9)
     assert pre.position == pytest.approx((0.74, 0.0, 1.10), abs=1e-9)
     tool_x = grasp.as_rotation().apply([1.0, 0.0, 0.0])
@@ -51,7 +52,7 @@ def test_offsets_are_in_the_object_frame() -> None:
 
 def test_top_grasp_points_the_tool_down() -> None:
     obj = Pose((0.5, 0.1, 0.8), frame="base_footprint").to_transform("bowl")
-    grasp = knowledge.grasp_poses("bowl", "top", obj)[2]
+    grasp = knowledge.grasp_poses("bowl", "top", obj, PR2_TOOL)[2]
     assert grasp.as_rotation().apply([1.0, 0.0, 0.0]) == pytest.approx([0, 0, -1], abs=1e-9)
     assert grasp.position == pytest.approx((0.43, 0.1, 0.81))
 
@@ -76,7 +77,7 @@ def test_a_lying_carton_is_grasped_from_above_and_lifted_straight_up() -> None:
     s = np.sqrt(0.5)
     lying = Pose((0.7, 0.0, 0.75), (0.0, s, 0.0, s), frame="base_footprint")
     pre, pre2, grasp, lift, lift2 = knowledge.grasp_poses(
-        "milk", "back", lying.to_transform("milk")
+        "milk", "back", lying.to_transform("milk"), PR2_TOOL
     )
     tool_x = grasp.matrix()[:3, 0]  # the PR2 tool's x axis is the approach
     assert np.allclose(tool_x, (0.0, 0.0, -1.0), atol=1e-9)
@@ -87,7 +88,7 @@ def test_a_lying_carton_is_grasped_from_above_and_lifted_straight_up() -> None:
 
 def test_an_upright_object_keeps_the_offsets_in_its_own_frame() -> None:
     tilted = Pose((0.7, 0.1, 0.8), (0.0, np.sin(0.1), 0.0, np.cos(0.1)), frame="base_footprint")
-    poses = knowledge.grasp_poses("milk", "back", tilted.to_transform("milk"))
+    poses = knowledge.grasp_poses("milk", "back", tilted.to_transform("milk"), PR2_TOOL)
     g = knowledge.grasp("milk", "back")
     b_t_o = tilted.matrix()
     for pose, off in zip(poses, g.offsets()):

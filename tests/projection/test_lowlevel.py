@@ -22,6 +22,7 @@ from executive.failures import (
     TorsoGoalNotReached,
 )
 from projection import World
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 DRAWER = "sink_area_left_upper_drawer_main"
@@ -262,13 +263,13 @@ def test_grip_on_nothing_fails(sink: World) -> None:
 def test_grip_around_a_cup_succeeds(sink: World) -> None:
     sink.spawn_object("cup", "cup", Pose((1.3, 0.6, 0.9)))
     obj = sink.object_pose("cup", "base_footprint").to_transform("cup")
-    grasp = knowledge.grasp_poses("cup", "back", obj)[2]
+    grasp = knowledge.grasp_poses("cup", "back", obj, PR2_TOOL)[2]
     sink.gripper("open", ("left", "right"))
     sink.move_tcp(right=grasp)
     sink.gripper("grip", "right")
     assert 0.06 < sink.gripper_opening("right") < 0.085  # stopped at the cup wall (0.08)
     sink.attach("cup", "r_gripper_tool_frame")
-    lift = knowledge.grasp_poses("cup", "back", obj)[3]
+    lift = knowledge.grasp_poses("cup", "back", obj, PR2_TOOL)[3]
     sink.move_tcp(right=lift)
     assert sink.object_pose("cup").position[2] == pytest.approx(1.05, abs=0.01)
 

@@ -16,6 +16,7 @@ from projection import World
 from projection._collision_model import CollisionModel
 from projection._motion_planner import ArmMotionPlanner, ArmTrajectory, time_parameterise
 from projection._objects import object_type
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 RIGHT = [f"r_{j}" for j in knowledge.ARM_JOINTS]
@@ -39,7 +40,7 @@ def _pregrasp(world: World) -> tuple[float, ...]:
     """The right arm's configuration at the cup's back pregrasp (the arm is put back)."""
     start = world.arm_joints("right")
     cup = world.object_pose("cup-1", "base_footprint").to_transform("cup-1")
-    world.move_tcp(right=knowledge.grasp_poses("cup", "back", cup)[0])
+    world.move_tcp(right=knowledge.grasp_poses("cup", "back", cup, PR2_TOOL)[0])
     goal = world.arm_joints("right")
     world.move_joints(right=start)
     return goal

@@ -31,6 +31,7 @@ from executive import (
 from executive.events import ObjectPerceived, subscribe
 from projection import ProjectedWorldModel, World, with_projected_robot
 from projection._process_modules import projection_process_modules
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 CUP_ON_COUNTER = Pose((1.3, 0.6, 0.9))
@@ -160,7 +161,7 @@ def test_gripper_motions(mrun: Any, world: World, motion: Any, opening: float) -
 
 def test_opening_gripper_and_gripping_a_cup(mrun: Any, sink: World) -> None:
     obj = sink.object_pose("cup-1", "base_footprint").to_transform("cup-1")
-    grasp = knowledge.grasp_poses("cup", "back", obj)[2]
+    grasp = knowledge.grasp_poses("cup", "back", obj, PR2_TOOL)[2]
 
     async def body() -> None:
         await perform(a.motion(type="closing-gripper", gripper="right"))

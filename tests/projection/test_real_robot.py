@@ -38,6 +38,7 @@ from projection._real_body import (
     DETECTION_TIME,
     TORSO_VELOCITY,
 )
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 CUP = "cup-1"
@@ -312,7 +313,7 @@ async def _pick(true: World, belief: World) -> str:
     assert isinstance(model, RealWorldModel)
     transform = cup.get("transform")
     for arm, grasp in ((arm, g) for arm in ("left", "right") for g in knowledge.grasps("cup")):
-        poses = knowledge.grasp_poses("cup", grasp, transform)
+        poses = knowledge.grasp_poses("cup", grasp, transform, PR2_TOOL)
         if model.probe_arm_trajectory(arm, poses, allowed_contacts=[CUP]).ok:
             break
     else:
@@ -390,7 +391,7 @@ def test_probes_restore_the_belief_and_never_touch_the_truth(pair: tuple[World, 
             assert isinstance(model, RealWorldModel)
             before_true, before_belief = true.snapshot(), belief.snapshot()
             transform = belief.object_pose(CUP, "base_footprint").to_transform(CUP)
-            poses = knowledge.grasp_poses("cup", knowledge.grasps("cup")[0], transform)
+            poses = knowledge.grasp_poses("cup", knowledge.grasps("cup")[0], transform, PR2_TOOL)
             model.probe_arm_trajectory("left", poses, robot_pose=SINK_NAV, gripper_opening=0.1)
             model.probe_base_pose(Pose.from_xyz_yaw(2.0, 0.7))
             model.probe_placing_stability("cup", Pose((-0.79, 1.35, 0.9)))

@@ -13,6 +13,7 @@ import cpl
 from cpl.testing import MockClock
 from executive import ManipulationGoalInCollision, Pose, a, knowledge, perform
 from projection import FaultProfile, ProjectedWorldModel, World, make_world_pair, with_real_robot
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 CUP = "cup-1"
@@ -42,7 +43,7 @@ def _add_neighbour(*worlds: World) -> None:
 
 def _back_grasp(world: World) -> list[Pose]:
     cup = world.object_pose(CUP, "base_footprint").to_transform(CUP)
-    return knowledge.grasp_poses("cup", "back", cup)
+    return knowledge.grasp_poses("cup", "back", cup, PR2_TOOL)
 
 
 def _state(world: World) -> tuple[object, ...]:

@@ -13,6 +13,7 @@ from executive import knowledge
 from executive._pose import Pose
 from projection import World
 from projection._objects import OBJECT_TYPES
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 ISLAND_NAV = Pose.from_xyz_yaw(-0.2, 1.5, 0.0, math.pi)
@@ -240,7 +241,7 @@ def _reachable(world: World, obj_type: str, pose: Pose, waypoints: tuple[int, ..
     obj_in_base = Pose(*_rel(base, pose), frame="base_footprint").to_transform("obj")
     for arm in knowledge.ARMS:
         for g in knowledge.grasps(obj_type):
-            poses = knowledge.grasp_poses(obj_type, g, obj_in_base)
+            poses = knowledge.grasp_poses(obj_type, g, obj_in_base, PR2_TOOL)
             snap = world.snapshot()
             try:
                 for k in waypoints:

@@ -33,6 +33,7 @@ from executive.events import (
     emit,
 )
 from projection import ProjectedWorldModel, World, with_projected_robot
+from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
 CUP = Pose((1.3, 0.6, 0.9))
@@ -56,7 +57,7 @@ def model(world: World) -> ProjectedWorldModel:
 
 def back_grasp(world: World, obj: str = "cup-1") -> list[Pose]:
     transform = world.object_pose(obj, "base_footprint").to_transform(obj)
-    return knowledge.grasp_poses("cup", "back", transform)
+    return knowledge.grasp_poses("cup", "back", transform, PR2_TOOL)
 
 
 # ------------------------------------------------------------------ queries
