@@ -785,27 +785,36 @@ def _robots(summary: dict[str, Any]) -> list[str]:
 
 def summary_table(summary: dict[str, Any]) -> Any:
     """The summary as a rich table that fits 80 columns (retries and violation details
-    are in ``campaign.json``). ``crash``: runs the harness lost (their objects count
-    as not delivered); ``bad runs``: runs that violated an invariant or crashed. The
-    title names the robot of a one-robot campaign; with several, each row starts with
-    its robot."""
+    are in ``campaign.json``), titled with its robot; with several robots, one such
+    table per robot (a ``rich.console.Group``). ``crash``: runs the harness lost (their
+    objects count as not delivered); ``bad runs``: runs that violated an invariant or
+    crashed."""
+    robots = _robots(summary)
+    if len(robots) <= 1:
+        return _robot_table(summary["rows"], robots[0] if robots else None)
+    from rich.console import Group
+
+    return Group(*(_robot_table(_rows_of(summary, robot), robot) for robot in robots))
+
+
+def _rows_of(summary: dict[str, Any], robot: str) -> list[dict[str, Any]]:
+    """The rows of ``summary`` that ``robot`` ran."""
+    return [r for r in summary["rows"] if r.get("robot", DEFAULT_ROBOT) == robot]
+
+
+def _robot_table(rows: list[dict[str, Any]], robot: str | None) -> Any:
+    """The table of one robot's ``rows`` (see :func:`summary_table`)."""
     from rich import box
     from rich.table import Table
 
-    robots = _robots(summary)
-    several = len(robots) > 1
     table = Table(
-        title="robustness campaign (true world"
-        + ("" if several or not robots else f", {robots[0]}")
-        + ")",
+        title="robustness campaign (true world" + ("" if robot is None else f", {robot}") + ")",
         box=box.SIMPLE_HEAD,
         padding=(0, 1),
         collapse_padding=True,
         show_edge=False,
         pad_edge=False,
     )
-    if several:
-        table.add_column("robot", justify="left", no_wrap=True)
     for col, justify in (
         ("proj", "left"),
         ("faults", "right"),
@@ -819,9 +828,8 @@ def summary_table(summary: dict[str, Any]) -> Any:
         ("bad runs", "right"),
     ):
         table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
-    for r in summary["rows"]:
+    for r in rows:
         table.add_row(
-            *([str(r.get("robot", DEFAULT_ROBOT))] if several else []),
             "yes" if r["projection"] else "no",
             f"{r['fault_rate']:.2f}",
             str(r["runs"]),
@@ -837,20 +845,27 @@ def summary_table(summary: dict[str, Any]) -> Any:
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
+    """The table, projection fidelity and violations by kind: per robot, each part
+    after its robot's table when there are several."""
     from rich.console import Console
 
     console = Console()
-    console.print(summary_table(summary))
-    for line in fidelity_lines(summary["rows"]):
-        console.print(line)
-    kinds: dict[str, int] = defaultdict(int)
-    for r in summary["rows"]:
-        for v in r["invariant_violations"]:
-            kinds[v["invariant"]] += 1
-    if kinds:
-        console.print(
-            "violations by kind: " + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
-        )
+    robots = _robots(summary)
+    for robot in robots if len(robots) > 1 else [None]:
+        rows = summary["rows"] if robot is None else _rows_of(summary, robot)
+        console.print(summary_table({**summary, "rows": rows}))
+        for line in fidelity_lines(rows):
+            console.print(line if robot is None else f"{robot}: {line}")
+        kinds: dict[str, int] = defaultdict(int)
+        for r in rows:
+            for v in r["invariant_violations"]:
+                kinds[v["invariant"]] += 1
+        if kinds:
+            console.print(
+                ("" if robot is None else f"{robot}: ")
+                + "violations by kind: "
+                + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
+            )
 
 
 def _rates(text: str) -> list[float]:
