@@ -16,7 +16,10 @@ Which of the seed's numbers depend on the PR2 (the seed's tutorial was written f
 - the torso height 0.3 m (within the PR2's 0..0.33 m lift);
 - the hand pose (0.7, 0.5, 0.8) in the base frame for lifting and reaching, and the cup
   spawned at (0.5, 0.3, 1.0): chosen inside the PR2's left arm's reach at that torso
-  height; another arm may not reach them, or reach them with another tool orientation;
+  height; another arm may not reach them (the Panda does not reach the hand pose, 0.86 m
+  out to the side: the step then says so and the walkthrough goes on);
+- looking at that hand pose to see the cup: the PR2's head camera sees the cup from there;
+  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, does not);
 - what the pick prints: the link the cup hangs from (``l_wrist_roll_link``) and the cup's
   height while held (1.067 m), the PR2's hand geometry and its ``top`` grasp.
 
@@ -34,7 +37,14 @@ import cpl
 import projection
 import robots
 from cpl.display import render_text
-from executive import Pose, a, an, perform, pm_execute
+from executive import (
+    ManipulationPoseUnreachable,
+    Pose,
+    a,
+    an,
+    perform,
+    pm_execute,
+)
 from plans.demo import table_setting
 
 
@@ -73,7 +83,11 @@ async def walkthrough(world: projection.World) -> None:
         hand = Pose((0.7, 0.5, 0.8), frame=base)
         for verb in ("lifting", "reaching"):
             action = an.action(type=verb, left_poses=(hand,))
-            await perform(action)
+            try:
+                await perform(action)
+            except ManipulationPoseUnreachable as exc:  # the seed's pose is the PR2's
+                show(f"(perform {action})", f"beyond this robot's left arm: {exc}")
+                continue
             show(f"(perform {action})", world.link_pose(tool, base))
 
         section("5. picking up a cup, carrying it, putting it down")
