@@ -738,6 +738,7 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
             xs = [r["fault_rate"] for r in rows]
             ys = [r[key] for r in rows]
             name = "with projection" if proj else "without projection"
+            style = "-" if robot == robots[0] else "--"  # a robot's lines: one style
             if len(robots) > 1:
                 name = f"{robot}, {name}"
             if key == "success_rate":
@@ -747,10 +748,16 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
                     [hi - y for y, (_, hi) in zip(ys, bounds, strict=True)],
                 ]
                 ax.errorbar(
-                    xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} (95 % interval)"
+                    xs,
+                    ys,
+                    yerr=err,
+                    marker="o",
+                    capsize=3,
+                    ls=style,
+                    label=f"{name} (95 % interval)",
                 )
             else:
-                ax.plot(xs, ys, marker="o", label=name)
+                ax.plot(xs, ys, marker="o", ls=style, label=name)
             if len(runs) > 1:
                 for x, y, r in zip(xs, ys, rows, strict=True):
                     ax.annotate(

@@ -324,3 +324,22 @@ def test_the_pr2s_footprint_is_its_base_box():
 
     with World(seed=0) as world:
         assert base_half_extents(world) == pytest.approx((0.326, 0.326), abs=1e-3)
+
+
+def test_the_plots_draw_a_line_per_robot_and_mode(tmp_path, monkeypatch):
+    import matplotlib.figure
+
+    from aiocram.campaign import _plot
+
+    labels: list[list[str]] = []
+    save = matplotlib.figure.Figure.savefig
+
+    def savefig(fig, *args, **kwargs):
+        labels.append([t.get_text() for t in fig.axes[0].get_legend().get_texts()])
+        return save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    summary = summarise([_record("pr2", 1, 5), _record("panda", 1, 3)])
+    assert [p.name for p in _plot(summary, tmp_path)] == ["success_rate.png", "distance.png"]
+    assert labels[1] == ["panda, with projection", "pr2, with projection"]
+    assert labels[0][0] == "panda, with projection (95 % interval)"
