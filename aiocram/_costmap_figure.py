@@ -40,6 +40,9 @@ class _Use:
     objects: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]  # belief AABBs then
     tries: list[tuple[tuple[float, float, float], bool]] = field(default_factory=list)
     task: Any = None  # the first real navigating task to this chain (for the task tree)
+    #: half the base's length and width (m, base frame): the robot's base link
+    #: (:func:`base_half_extents`); None: unknown, the base is not outlined
+    footprint: tuple[float, float] | None = None
 
 
 @dataclass
@@ -53,6 +56,22 @@ class _Alternative:
     reached: tuple[float, float, float] | None  # where its imagined base stood, if it got there
     failed: list[tuple[float, float, float]]  # poses its imagined navigation failed at
     chosen: bool  # the real robot went on with this one
+
+
+def base_half_extents(world: Any) -> tuple[float, float]:
+    """Half the length and width (m) of the base of ``world``'s robot, in its own frame:
+    the axis-aligned box of its description's ``base_link`` as the world has it now,
+    turned back by the robot's yaw (exact for a box-shaped base at any yaw but 45 deg
+    multiples, where the box's extents cannot be told apart: a square is assumed)."""
+    lo, hi = world.link_aabb(world.robot.base_link)
+    ex, ey = (hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0
+    yaw = float(world.robot_pose().yaw)
+    c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
+    det = c * c - s * s  # ex = a c + b s, ey = a s + b c
+    if abs(det) < 1e-3:
+        side = (ex + ey) / (2.0 * (c + s))
+        return side, side
+    return (ex * c - ey * s) / det, (ey * c - ex * s) / det
 
 
 def _xyyaw(pose: Any) -> tuple[float, float, float]:
@@ -294,17 +313,24 @@ def draw_costmap(
     draw_furniture(ax, boxes, lw=1.2)
     draw_objects(ax, use.objects)
     rx, ry, ryaw = use.robot
-    half = 0.33  # the PR2 base footprint is about 0.66 m square
     c, s = math.cos(ryaw), math.sin(ryaw)
-    corners = [
-        (rx + c * dx - s * dy, ry + s * dx + c * dy)
-        for dx, dy in ((half, half), (-half, half), (-half, -half), (half, -half))
-    ]
-    ax.add_patch(
-        Polygon(
-            corners, closed=True, facecolor="none", edgecolor="black", lw=1.5, ls="--", zorder=4
+    if use.footprint is not None:  # the robot's base, from its description's base link
+        hx, hy = use.footprint
+        corners = [
+            (rx + c * dx - s * dy, ry + s * dx + c * dy)
+            for dx, dy in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))
+        ]
+        ax.add_patch(
+            Polygon(
+                corners,
+                closed=True,
+                facecolor="none",
+                edgecolor="black",
+                lw=1.5,
+                ls="--",
+                zorder=4,
+            )
         )
-    )
     ax.annotate(
         "",
         (rx + 0.45 * c, ry + 0.45 * s),
@@ -314,7 +340,7 @@ def draw_costmap(
     )
     ax.annotate(
         "robot (before)",
-        (rx, ry - half),
+        (rx, ry - (0.0 if use.footprint is None else max(use.footprint))),
         xytext=(0, -12),
         textcoords="offset points",
         ha="center",

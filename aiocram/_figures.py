@@ -34,6 +34,7 @@ from ._costmap_figure import (
     _has_costmap,
     _Use,
     _xyyaw,
+    base_half_extents,
     costmap_figure,
     draw_furniture,
     kitchen_boxes,
@@ -384,7 +385,16 @@ class CostmapRecorder(cpl.Instrument):
         for name in self.world.objects:
             lo, hi = self.world.object_aabb(name)
             boxes[name] = (tuple(lo), tuple(hi))
-        return _Use(first, obj, purpose, step, _xyyaw(self.world.robot_pose()), boxes, task=task)
+        return _Use(
+            first,
+            obj,
+            purpose,
+            step,
+            _xyyaw(self.world.robot_pose()),
+            boxes,
+            task=task,
+            footprint=base_half_extents(self.world),
+        )
 
     def figures(
         self, engine: Any, out_dir: Path, limit: int = 6, part: tuple[int, int] = (0, 1)

@@ -178,14 +178,15 @@ def _campaign_markdown(directory: Path) -> str:
         "island near where the plan placed them, see `aiocram.truth`); *claimed* is what the "
         "plan reported; a *phantom* was claimed but not delivered.",
         "",
-        "| projection | fault rate | runs | delivered | claimed | phantoms "
+        "| robot | projection | fault rate | runs | delivered | claimed | phantoms "
         "| mean distance (m) | mean sim time (s) | runs violating an invariant | retries used |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in summary["rows"]:
         bad_runs = len({v["seed"] for v in r["invariant_violations"]})
         retries = ", ".join(f"{k} {v}" for k, v in r["retries"].items()) or "-"
         lines.append(
+            f"| {r.get('robot', 'pr2')} "  # a summary from before robots were a choice: pr2
             f"| {'yes' if r['projection'] else 'no'} | {r['fault_rate']:.2f} | {r['runs']} | "
             f"{100 * r.get('delivered_rate', r['success_rate']):.1f} % | "
             f"{100 * r.get('claimed_rate', 0.0):.1f} % | {r.get('phantoms', 0)} | "

@@ -1,5 +1,5 @@
 """The robustness campaign: the table-setting demo on the simulated real robot for every
-(seed, fault rate), with and without projection reasoning.
+(robot, seed, fault rate), with and without projection reasoning.
 
 Each job is independent and seeded (:func:`aiocram.demo.run_demo_once`), so jobs can run
 anywhere: the ``local`` backend runs them on worker processes of this machine; the
@@ -11,7 +11,9 @@ Every figure is measured on the true world (:mod:`aiocram.truth`): per fault rat
 objects *delivered* (upright on the island near where the plan placed them), what the
 plans *claimed*, the *phantoms* (claimed, not delivered), where the others ended up,
 retries by kind, base distance, time, and the invariants that must hold in every run
-(:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why.
+(:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why. With
+``--robots pr2,panda`` every cell is run by each robot, and every figure is per robot
+(a ``robot`` field in each row of the summary, a column of the table).
 
 The harness keeps every finished run: each run's record is appended to ``OUT/runs.jsonl``
 as it ends; a local worker that dies (killed, crashed) is recorded as an ``error`` run of
@@ -52,7 +54,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aiocram.demo import DEFAULT_OBJECTS, add_objects_argument, crash_record, whole
+from aiocram.demo import (
+    DEFAULT_OBJECTS,
+    DEFAULT_ROBOT,
+    DemoConfigError,
+    add_objects_argument,
+    crash_record,
+    robot_names,
+    whole,
+)
 from aiocram.demo import check_objects as _check_objects
 from aiocram.foresight import fidelity_lines, fidelity_summary
 from aiocram.truth import INVARIANTS
@@ -71,7 +81,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Job:
-    """One demo run: a seed, a uniform fault rate, projection reasoning on or off."""
+    """One demo run: a seed, a uniform fault rate, projection reasoning on or off, a
+    robot (its name in the ``robots`` package)."""
 
     seed: int
     fault_rate: float
@@ -88,6 +99,8 @@ class Job:
     #: A learned-priors file (``aiocram experience learn``) the run orders its choices by;
     #: ``None``: not used. Checked before any job starts (:func:`plan_campaign`).
     learned: str | None = None
+    #: The robot that runs the job: a name of the ``robots`` package (``--robots``).
+    robot: str = DEFAULT_ROBOT
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -105,6 +118,7 @@ def run_job(job: Job) -> dict[str, Any]:
             runs=job.runs,
             experience=job.experience,
             learned=job.learned,
+            robot=job.robot,
         )
     except Exception as exc:  # the campaign records every failure of the harness itself
         result = _crashed(job, f"{type(exc).__name__}: {exc}")
@@ -118,12 +132,12 @@ def _experience_rows(job: Job, result: dict[str, Any]) -> None:
     """Give ``result`` its store rows (a crashed run: its run row only), stamped with the
     campaign; with ``job.store`` write them here and note ``"stored"`` (or
     ``"store_error"``) instead."""
-    from aiocram.experience import StoreError, robot_name, run_rows
+    from aiocram.experience import StoreError, run_rows
 
     rows = result.get("experience")
     if rows is None:
         faults = f"{job.fault_rate:g}"
-        rows = run_rows(result, None, robot=robot_name(), source="campaign", faults=faults)
+        rows = run_rows(result, None, robot=job.robot, source="campaign", faults=faults)
     run = rows["runs"][0]
     run["campaign"] = job.campaign
     run["wall_time_s"] = result["wall_time_s"]
@@ -147,12 +161,21 @@ def _jobs(
     first_seed: int,
     objects: tuple[str, ...],
     learned: str | None = None,
+    robots: Sequence[str] = (DEFAULT_ROBOT,),
 ) -> list[Job]:
-    # Seed-major: every prefix of the job list covers each (mode, fault rate) cell evenly,
-    # so a campaign stopped early (Ctrl-C, a deadline) still compares like with like.
+    # Seed-major: every prefix of the job list covers each (robot, mode, fault rate) cell
+    # evenly, so a campaign stopped early (Ctrl-C, a deadline) still compares like with like.
     return [
-        Job(seed=first_seed + s, fault_rate=f, projection=p, objects=objects, learned=learned)
+        Job(
+            seed=first_seed + s,
+            fault_rate=f,
+            projection=p,
+            objects=objects,
+            learned=learned,
+            robot=robot,
+        )
         for s in range(seeds)
+        for robot in robots
         for p in modes
         for f in faults
     ]
@@ -232,7 +255,16 @@ def _crashed(job: Job, error: str) -> dict[str, Any]:
         projection=job.projection,
         objects=job.objects,
         error=error,
+        robot=_description_name(job.robot),
     )
+
+
+def _description_name(robot: str) -> str:
+    """The name the robot ``robot`` (a module of the ``robots`` package) records its runs
+    under: its description's ``name`` (:attr:`aiocram.demo.DemoReport.robot`)."""
+    from aiocram.demo import DemoConfig, robot_description
+
+    return str(robot_description(DemoConfig(robot=robot)).name)
 
 
 def _never() -> bool:
@@ -340,7 +372,7 @@ class CampaignStore:
 
     def take(self, record: dict[str, Any]) -> None:
         """Write (or account for) the rows of the run ``record``; they leave the record."""
-        from aiocram.experience import StoreError, robot_name, run_rows
+        from aiocram.experience import StoreError, run_rows
 
         rows = record.pop("experience", None)
         if "stored" in record:
@@ -351,7 +383,7 @@ class CampaignStore:
             self.errors.append(record.pop("store_error"))
             return
         if rows is None:  # a job that never reached run_job (a dead worker)
-            rows = run_rows(record, None, robot=robot_name(), source="campaign")
+            rows = run_rows(record, None, robot=record["robot"], source="campaign")
             rows["runs"][0]["campaign"] = self.campaign
         try:
             self.seconds += self.store.record(rows)
@@ -464,10 +496,14 @@ def plan_campaign(
     first_seed: int = 1,
     objects: Sequence[str] = Job.objects,
     learned: str | os.PathLike[str] | None = None,
+    robots: Sequence[str] | str = (DEFAULT_ROBOT,),
 ) -> list[Job]:
     """Check every argument and return the jobs; nothing runs. Bad arguments:
     ValueError naming what to fix (a bad ``learned`` file: a
-    :class:`aiocram.experience.PriorsError`, a ValueError too)."""
+    :class:`aiocram.experience.PriorsError`, a ValueError too). ``robots``: names of the
+    ``robots`` package (or their comma-separated text, as ``--robots`` gives them), each
+    crossed with every seed, mode and fault rate."""
+    robots = _check_robots(robots)
     if seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {seeds}")
     if first_seed < 0:
@@ -485,10 +521,12 @@ def plan_campaign(
     if backend not in ("local", "dask"):
         raise ValueError(f"unknown backend {backend!r}: use 'local' or 'dask'")
     if learned is not None:
-        from aiocram.experience import LearnedPriors, PriorsError, robot_name
+        from aiocram.experience import LearnedPriors, PriorsError
 
         try:
-            LearnedPriors.load(learned).check_robot(robot_name())
+            priors = LearnedPriors.load(learned)
+            for robot in robots:  # priors are learned by one robot, for that robot
+                priors.check_robot(_description_name(robot))
         except PriorsError as exc:
             raise type(exc)(f"--learned: {exc}") from None
     return _jobs(
@@ -498,7 +536,18 @@ def plan_campaign(
         first_seed,
         check_objects(objects),
         None if learned is None else str(learned),
+        robots,
     )
+
+
+def _check_robots(robots: Sequence[str] | str) -> tuple[str, ...]:
+    """``robots`` (names, or their comma-separated text) checked: each a robot of the
+    ``robots`` package, each once, at least one; else DemoConfigError (a ValueError)
+    naming ``--robots`` and the robots there are."""
+    text = robots if isinstance(robots, str) else ",".join(robots)
+    if not text:
+        raise DemoConfigError("--robots needs at least one robot, e.g. pr2 or pr2,panda")
+    return robot_names(text)
 
 
 def run_campaign(
@@ -512,6 +561,7 @@ def run_campaign(
     first_seed: int = 1,
     objects: Sequence[str] = Job.objects,
     learned: str | os.PathLike[str] | None = None,
+    robots: Sequence[str] | str = (DEFAULT_ROBOT,),
     progress: Callable[[int, int], None] | None = None,
     on_result: Callable[[dict[str, Any]], None] | None = None,
     results: list[dict[str, Any]] | None = None,
@@ -519,7 +569,7 @@ def run_campaign(
     client: Any = None,
     experience: Any = None,
 ) -> list[dict[str, Any]]:
-    """Run every (seed, fault rate, projection mode) job and return the raw results, in
+    """Run every (robot, seed, fault rate, projection mode) job and return the raw results, in
     the order they ended. ``on_result(record)`` is called as each run ends (the command
     appends it to ``runs.jsonl``); ``results``, if given, is the list they are appended
     to, so a caller interrupted by Ctrl-C still holds every finished run. Once ``stop()``
@@ -535,6 +585,7 @@ def run_campaign(
         first_seed=first_seed,
         objects=objects,
         learned=learned,
+        robots=robots,
     )
     if experience is not None:
         jobs = [experience.job(j) for j in jobs]
@@ -557,15 +608,18 @@ def run_campaign(
 
 
 def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
-    """Aggregate per (projection mode, fault rate): objects delivered (measured on the true
-    world), claimed by the plan, phantoms (claimed, not delivered), objects toppled or on
-    the floor, retries by kind, distance, time, and invariant violations (each listed with
-    its seed and why). ``success_rate`` is the delivered rate."""
-    groups: dict[tuple[bool, float], list[dict[str, Any]]] = defaultdict(list)
+    """Aggregate per (robot, projection mode, fault rate): objects delivered (measured on
+    the true world), claimed by the plan, phantoms (claimed, not delivered), objects
+    toppled or on the floor, retries by kind, distance, time, and invariant violations
+    (each listed with its seed and why). ``success_rate`` is the delivered rate. A record
+    without ``robot`` (written before robots were a choice) was run by the PR2-like
+    robot, the only one there was."""
+    groups: dict[tuple[str, bool, float], list[dict[str, Any]]] = defaultdict(list)
     for r in results:
-        groups[(bool(r["projection"]), float(r["fault_rate"]))].append(r)
+        robot = str(r.get("robot", DEFAULT_ROBOT))
+        groups[(robot, bool(r["projection"]), float(r["fault_rate"]))].append(r)
     rows = []
-    for (proj, rate), runs in sorted(groups.items()):
+    for (robot, proj, rate), runs in sorted(groups.items()):
         objects = [o for r in runs for o in r.get("objects", {}).values()]
         # a crashed run's objects were not delivered: they stay in the denominator
         # (records without "planned", from before it was kept, count as many objects as
@@ -606,6 +660,7 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
         total = len(objects)
         rows.append(
             {
+                "robot": robot,
                 "projection": proj,
                 "fault_rate": rate,
                 "runs": len(runs),
@@ -671,13 +726,21 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
         ("mean_distance_m", "mean base distance driven (m)", "distance.png"),
     ):
         fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=100)
-        for proj in (True, False):
-            rows = [r for r in rows_all if r["projection"] is proj]
+        robots = _robots(summary)
+        for robot, proj in ((robot, proj) for robot in robots for proj in (True, False)):
+            rows = [
+                r
+                for r in rows_all
+                if r["projection"] is proj and r.get("robot", DEFAULT_ROBOT) == robot
+            ]
             if not rows:
                 continue
             xs = [r["fault_rate"] for r in rows]
             ys = [r[key] for r in rows]
             name = "with projection" if proj else "without projection"
+            style = "-" if robot == robots[0] else "--"  # a robot's lines: one style
+            if len(robots) > 1:
+                name = f"{robot}, {name}"
             if key == "success_rate":
                 bounds = [_wilson(int(r["delivered"]), int(r["objects"])) for r in rows]
                 err = [
@@ -685,10 +748,16 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
                     [hi - y for y, (_, hi) in zip(ys, bounds, strict=True)],
                 ]
                 ax.errorbar(
-                    xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} (95 % interval)"
+                    xs,
+                    ys,
+                    yerr=err,
+                    marker="o",
+                    capsize=3,
+                    ls=style,
+                    label=f"{name} (95 % interval)",
                 )
             else:
-                ax.plot(xs, ys, marker="o", label=name)
+                ax.plot(xs, ys, marker="o", ls=style, label=name)
             if len(runs) > 1:
                 for x, y, r in zip(xs, ys, rows, strict=True):
                     ax.annotate(
@@ -716,15 +785,37 @@ def _plot(summary: dict[str, Any], out: Path) -> list[Path]:
     return paths
 
 
+def _robots(summary: dict[str, Any]) -> list[str]:
+    """The robots of ``summary``'s rows, in the order of the rows."""
+    return list(dict.fromkeys(str(r.get("robot", DEFAULT_ROBOT)) for r in summary["rows"]))
+
+
 def summary_table(summary: dict[str, Any]) -> Any:
     """The summary as a rich table that fits 80 columns (retries and violation details
-    are in ``campaign.json``). ``crash``: runs the harness lost (their objects count
-    as not delivered); ``bad runs``: runs that violated an invariant or crashed."""
+    are in ``campaign.json``), titled with its robot; with several robots, one such
+    table per robot (a ``rich.console.Group``). ``crash``: runs the harness lost (their
+    objects count as not delivered); ``bad runs``: runs that violated an invariant or
+    crashed."""
+    robots = _robots(summary)
+    if len(robots) <= 1:
+        return _robot_table(summary["rows"], robots[0] if robots else None)
+    from rich.console import Group
+
+    return Group(*(_robot_table(_rows_of(summary, robot), robot) for robot in robots))
+
+
+def _rows_of(summary: dict[str, Any], robot: str) -> list[dict[str, Any]]:
+    """The rows of ``summary`` that ``robot`` ran."""
+    return [r for r in summary["rows"] if r.get("robot", DEFAULT_ROBOT) == robot]
+
+
+def _robot_table(rows: list[dict[str, Any]], robot: str | None) -> Any:
+    """The table of one robot's ``rows`` (see :func:`summary_table`)."""
     from rich import box
     from rich.table import Table
 
     table = Table(
-        title="robustness campaign (true world)",
+        title="robustness campaign (true world" + ("" if robot is None else f", {robot}") + ")",
         box=box.SIMPLE_HEAD,
         padding=(0, 1),
         collapse_padding=True,
@@ -744,7 +835,7 @@ def summary_table(summary: dict[str, Any]) -> Any:
         ("bad runs", "right"),
     ):
         table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
-    for r in summary["rows"]:
+    for r in rows:
         table.add_row(
             "yes" if r["projection"] else "no",
             f"{r['fault_rate']:.2f}",
@@ -761,20 +852,27 @@ def summary_table(summary: dict[str, Any]) -> Any:
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
+    """The table, projection fidelity and violations by kind: per robot, each part
+    after its robot's table when there are several."""
     from rich.console import Console
 
     console = Console()
-    console.print(summary_table(summary))
-    for line in fidelity_lines(summary["rows"]):
-        console.print(line)
-    kinds: dict[str, int] = defaultdict(int)
-    for r in summary["rows"]:
-        for v in r["invariant_violations"]:
-            kinds[v["invariant"]] += 1
-    if kinds:
-        console.print(
-            "violations by kind: " + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
-        )
+    robots = _robots(summary)
+    for robot in robots if len(robots) > 1 else [None]:
+        rows = summary["rows"] if robot is None else _rows_of(summary, robot)
+        console.print(summary_table({**summary, "rows": rows}))
+        for line in fidelity_lines(rows):
+            console.print(line if robot is None else f"{robot}: {line}")
+        kinds: dict[str, int] = defaultdict(int)
+        for r in rows:
+            for v in r["invariant_violations"]:
+                kinds[v["invariant"]] += 1
+        if kinds:
+            console.print(
+                ("" if robot is None else f"{robot}: ")
+                + "violations by kind: "
+                + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
+            )
 
 
 def _rates(text: str) -> list[float]:
@@ -829,6 +927,13 @@ def add_parser(subparsers: Any) -> None:
         help="the first seed; the runs use FIRST .. FIRST+SEEDS-1 (>= 0)",
     )
     add_objects_argument(p, "objects to set in every run, each once", choices=False)
+    p.add_argument(
+        "--robots",
+        default=DEFAULT_ROBOT,
+        metavar="NAMES",
+        help="robots that run every cell, comma-separated, each once: modules of the "
+        "robots package (pr2, panda); each row of the summary is one robot's",
+    )
     p.add_argument(
         "--faults",
         type=_rates,
@@ -1001,6 +1106,7 @@ def _command(args: argparse.Namespace) -> int:
         first_seed=args.first_seed,
         objects=args.objects,
         learned=args.learned,
+        robots=args.robots,
     )
     try:
         jobs = plan_campaign(**settings)

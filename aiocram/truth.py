@@ -205,14 +205,23 @@ def leaked_tasks(tasks: Iterable[cpl.Task], current: cpl.Task | None) -> list[cp
     return [t for t in tasks if t.alive and id(t) not in keep]
 
 
-def _holding_arm(link: str) -> str | None:
-    """The arm a robot link belongs to (``l_*``/``r_*``), or None."""
-    from executive.knowledge import ARM_PREFIX
+def _arm_links(robot: Any) -> dict[str, frozenset[str]]:
+    """Per arm of ``robot`` (an :class:`executive.RobotDescription`), by arm name: the
+    links that move with the arm, read from the robot's URDF: every link below the
+    arm's first joint (its links, its hand, its gripper's fingers)."""
+    from executive import KinematicTree
 
-    for arm, prefix in ARM_PREFIX.items():
-        if link.startswith(prefix + "_"):
-            return arm
-    return None
+    tree = KinematicTree.from_urdf(robot.urdf())
+    out = {}
+    for arm in robot.arms:
+        first = tree.joints[arm.joints[0]].child  # validate() checked the chain
+        out[arm.name] = frozenset(link for link in tree.links if tree.is_below(link, first))
+    return out
+
+
+def _holding_arm(link: str, arms: Mapping[str, frozenset[str]]) -> str | None:
+    """The arm whose links (:func:`_arm_links`) include ``link``, or None."""
+    return next((arm for arm, links in arms.items() if link in links), None)
 
 
 def _describe(atask: asyncio.Task[Any]) -> str:
@@ -222,12 +231,12 @@ def _describe(atask: asyncio.Task[Any]) -> str:
 
 
 def _arm_error(world: Any, configuration: str) -> dict[str, float]:
-    from executive.knowledge import arm_configuration
-
+    """Per arm of the world's robot: the largest joint distance (rad) from its named
+    configuration ``configuration`` (the description's ``arm.state``)."""
     out = {}
-    for arm in ("left", "right"):
-        target = arm_configuration(configuration, arm)
-        out[arm] = max(abs(a - b) for a, b in zip(world.arm_joints(arm), target))
+    for arm in world.robot.arms:
+        target = arm.state(configuration)
+        out[arm.name] = max(abs(a - b) for a, b in zip(world.arm_joints(arm.name), target))
     return out
 
 
@@ -353,7 +362,7 @@ class TruthObserver:
             detail = "; ".join(
                 f"{arm} arm {min(errs[arm] for errs in self._arms_before.values()):.2f} rad"
                 " from carry/park"
-                for arm in ("left", "right")
+                for arm in self._arms_before[REST_CONFIGURATIONS[0]]
             )
             check("arms_at_rest_before_cleanup", at_rest, detail)
             if not at_rest:
@@ -366,7 +375,8 @@ class TruthObserver:
         check("no_object_lost", not lost, "; ".join(lost))
         drawer = world.joint_position(DRAWER_JOINT)
         check("drawer_closed", abs(drawer) < 0.01, f"drawer open {drawer:.3f} m")
-        holding = {name: _holding_arm(link) for name, link in _robot_holds(world).items()}
+        arms = _arm_links(world.robot)
+        holding = {name: _holding_arm(link, arms) for name, link in _robot_holds(world).items()}
         carry = _arm_error(world, "carry")
         unsafe = [
             f"{name} held by {arm or 'no'} arm"

@@ -5,7 +5,28 @@ to (-0.5, 0, 0) and putting it down, then CRAM's demo with the bowl alone
 (``demo-random nil '(:bowl)``). Prints each step and, at the end, the task tree (finished
 subtrees collapsed).
 
-    python examples/07_seed_walkthrough.py [SEED]
+    python examples/07_seed_walkthrough.py [SEED] [ROBOT]
+
+``ROBOT``: a robot of the ``robots`` package (``pr2``, the default, or ``panda``); the
+steps read its tool frame and base frame from its description, and use the left arm,
+which every robot has (a one-armed robot's arm is ``left``).
+
+Which of the seed's numbers depend on the PR2 (the seed's tutorial was written for it):
+
+- the torso height 0.3 m (within the PR2's 0..0.33 m lift);
+- the hand pose (0.7, 0.5, 0.8) in the base frame for lifting and reaching, and the cup
+  spawned at (0.5, 0.3, 1.0): chosen inside the PR2's left arm's reach at that torso
+  height; another arm may not reach them (the Panda does not reach the hand pose, 0.86 m
+  out to the side: the step then says so and the walkthrough goes on);
+- looking at that hand pose to see the cup: the PR2's head camera sees the cup from there;
+  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, does not);
+- what the pick prints: the link the cup hangs from (``l_wrist_roll_link``) and the cup's
+  height while held (1.067 m), the PR2's hand geometry and its ``top`` grasp.
+
+Robot-independent: the base poses driven to ((0.5, 0, 0), (0.75, 0, 0), the origin,
+(-0.5, 0, 0)), the cup detected 1 m ahead of the base, the cup following the hand from
+(0.5, 0.3) to (0, 0.3) as the base drives back, its release, and the bowl's transport from
+CRAM's spawning pose.
 """
 
 from __future__ import annotations
@@ -14,8 +35,16 @@ import sys
 
 import cpl
 import projection
+import robots
 from cpl.display import render_text
-from executive import Pose, a, an, perform, pm_execute
+from executive import (
+    ManipulationPoseUnreachable,
+    Pose,
+    a,
+    an,
+    perform,
+    pm_execute,
+)
 from plans.demo import table_setting
 
 
@@ -50,11 +79,16 @@ async def walkthrough(world: projection.World) -> None:
         origin = an.action(type="going", target=a.location(pose=Pose((0.0, 0.0, 0.0))))
         await perform(origin)
         show(f"(perform {origin})", world.robot_pose())
-        hand = Pose((0.7, 0.5, 0.8), frame="base_footprint")
+        base, tool = world.robot.base_frame, world.robot.arm("left").tool_frame
+        hand = Pose((0.7, 0.5, 0.8), frame=base)
         for verb in ("lifting", "reaching"):
             action = an.action(type=verb, left_poses=(hand,))
-            await perform(action)
-            show(f"(perform {action})", world.link_pose("l_gripper_tool_frame", "base_footprint"))
+            try:
+                await perform(action)
+            except ManipulationPoseUnreachable as exc:  # the seed's pose is the PR2's
+                show(f"(perform {action})", f"beyond this robot's left arm: {exc}")
+                continue
+            show(f"(perform {action})", world.link_pose(tool, base))
 
         section("5. picking up a cup, carrying it, putting it down")
         world.remove_object("cup-1")
@@ -89,7 +123,11 @@ async def walkthrough(world: projection.World) -> None:
 
 def main() -> None:
     seed = int(sys.argv[1]) if len(sys.argv) > 1 else 3
-    world = projection.World(seed=seed)
+    try:
+        robot = robots.by_name(sys.argv[2] if len(sys.argv) > 2 else "pr2")
+    except robots.UnknownRobot as exc:
+        sys.exit(f"07_seed_walkthrough.py: {exc}")
+    world = projection.World(seed=seed, robot=robot)
     try:
         cpl.run(walkthrough, world, name="walkthrough", clock=cpl.ScaledClock(None))
     finally:

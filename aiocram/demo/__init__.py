@@ -40,10 +40,13 @@ from __future__ import annotations
 from ._cli import add_parser
 from ._config import (
     DEFAULT_OBJECTS,
+    DEFAULT_ROBOT,
     DemoConfig,
     DemoConfigError,
     add_objects_argument,
     check_objects,
+    robot_description,
+    robot_names,
     whole,
 )
 from ._report import DemoReport, crash_record
@@ -52,6 +55,7 @@ from ._summary import outcome_table, print_report
 
 __all__ = [
     "DEFAULT_OBJECTS",
+    "DEFAULT_ROBOT",
     "DemoConfig",
     "DemoConfigError",
     "DemoPlan",
@@ -63,6 +67,8 @@ __all__ = [
     "frozen_imports",
     "outcome_table",
     "print_report",
+    "robot_description",
+    "robot_names",
     "run_demo",
     "run_demo_once",
     "table_setting",

@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ._config import DemoConfig, DemoConfigError, add_objects_argument, speed_arg, whole
+from ._config import (
+    DEFAULT_ROBOT,
+    DemoConfig,
+    DemoConfigError,
+    add_objects_argument,
+    speed_arg,
+    whole,
+)
 from ._run import frozen_imports, run_demo
 from ._summary import print_report
 
@@ -33,6 +40,13 @@ def add_parser(subparsers: Any) -> None:
         formatter_class=HelpFormatter,
     )
     add_objects_argument(p, "objects to set, in this order")
+    p.add_argument(
+        "--robot",
+        default=DEFAULT_ROBOT,
+        metavar="NAME",
+        help="the robot that sets the table: a module of the robots package (pr2, panda; "
+        "docs/robots.md says how to add yours)",
+    )
     p.add_argument(
         "--seed",
         type=whole(0),
@@ -118,6 +132,7 @@ def _command(args: argparse.Namespace) -> int:
         live=not args.no_live,
         store=None if args.no_store else (args.store or Path(args.out) / "experience.sqlite"),
         learned=args.learned,
+        robot=args.robot,
     )
     if args.no_store and args.store is not None:
         print("aiocram demo: error: --store and --no-store: give one of them", file=sys.stderr)

@@ -20,17 +20,24 @@ from executive import kitchen
 
 __all__ = [
     "DEFAULT_OBJECTS",
+    "DEFAULT_ROBOT",
     "DemoConfig",
     "DemoConfigError",
     "add_objects_argument",
     "check_objects",
     "fault_profile",
+    "robot_description",
+    "robot_names",
     "speed_arg",
     "whole",
 ]
 
 #: The demo's objects, in the order they are set: :data:`executive.kitchen.DEMO_OBJECTS`.
 DEFAULT_OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
+
+
+#: The robot the demo runs unless ``--robot`` says otherwise: ``robots.pr2``.
+DEFAULT_ROBOT = "pr2"
 
 
 class DemoConfigError(ValueError):
@@ -77,6 +84,9 @@ class DemoConfig:
     #: Learned priors (``aiocram experience learn --out FILE``) that reorder designator
     #: resolution's choices; ``None`` (the default): the rules' own order, nothing learned.
     learned: str | Path | None = None
+    #: The robot: a name of the ``robots`` package (``"pr2"``, ``"panda"``: the module
+    #: ``robots.NAME``) or an :class:`executive.RobotDescription` of your own.
+    robot: Any = DEFAULT_ROBOT
 
     def check(self) -> None:
         """Raise :class:`DemoConfigError` (naming the flag) for the first bad field. Touches
@@ -84,6 +94,7 @@ class DemoConfig:
         from aiocram._outputs import OutputError, check_out_dir
 
         check_objects(self.objects)
+        robot_description(self)  # raises DemoConfigError naming --robot
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise DemoConfigError(f"--seed must be a whole number >= 0, got {self.seed!r}")
         if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
@@ -121,10 +132,53 @@ def learned_priors(config: DemoConfig) -> Any:
 
     try:
         priors = LearnedPriors.load(config.learned)
-        priors.check_robot(robot_name())
+        priors.check_robot(robot_name(robot_description(config)))
     except PriorsError as exc:
         raise DemoConfigError(f"--learned: {exc}") from None
     return priors
+
+
+def robot_description(config: DemoConfig) -> Any:
+    """The :class:`executive.RobotDescription` of ``config.robot`` (looked up by name in
+    the ``robots`` package: :func:`robots.by_name`); an unknown name or a value that is
+    neither a name nor a description raises :class:`DemoConfigError` naming ``--robot``
+    and the robots there are. Loads nothing into a world."""
+    import robots
+    from executive import RobotDescription
+
+    robot = config.robot
+    if isinstance(robot, RobotDescription):
+        return robot
+    if not isinstance(robot, str):
+        raise DemoConfigError(
+            f"--robot takes a robot's name ({', '.join(robots.names())}) or an "
+            f"executive.RobotDescription, got {robot!r}"
+        )
+    try:
+        return robots.by_name(robot)
+    except robots.UnknownRobot as exc:
+        raise DemoConfigError(
+            f"--robot {robot}: unknown robot; known: {', '.join(exc.known)} "
+            "(docs/robots.md says how to describe yours)"
+        ) from None
+
+
+def robot_names(text: str) -> tuple[str, ...]:
+    """The robots of a comma-separated ``--robots`` text (the campaign's), each checked
+    (:func:`robot_description`), in the order given, each once; else
+    :class:`DemoConfigError` naming ``--robots``."""
+    given = tuple(part.strip() for part in text.split(","))
+    if not all(given):
+        raise DemoConfigError(f"--robots {text!r}: give names separated by commas, e.g. pr2,panda")
+    repeated = sorted({r for r in given if given.count(r) > 1})
+    if repeated:
+        raise DemoConfigError(f"--robots: {' '.join(repeated)} given more than once")
+    for name in given:
+        try:
+            robot_description(DemoConfig(robot=name))
+        except DemoConfigError as exc:
+            raise DemoConfigError(str(exc).replace("--robot ", "--robots: ", 1)) from None
+    return given
 
 
 def fault_profile(config: DemoConfig) -> Any:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from aiocram.truth import TruthReport
 
-from ._config import DemoConfig
+from ._config import DemoConfig, robot_description
 
 if TYPE_CHECKING:  # plans is imported when a demo runs, not with this module
     from plans.demo import ObjectOutcome
@@ -52,6 +52,11 @@ class DemoReport:
     distances: dict[str, float] = field(default_factory=dict)
 
     @property
+    def robot(self) -> str:
+        """The name of the robot that ran (its :class:`executive.RobotDescription`'s)."""
+        return str(robot_description(self.config).name)
+
+    @property
     def delivered(self) -> int:
         """Objects delivered, measured on the true world."""
         return 0 if self.truth is None else self.truth.delivered
@@ -75,6 +80,7 @@ class DemoReport:
                 "imagined_wall_s": self.imagined_wall_s.get(name, 0.0),
             }
         return {
+            "robot": self.robot,
             "seed": self.config.seed,
             "projection": self.config.projection,
             "objects": objects,
@@ -90,11 +96,18 @@ class DemoReport:
 
 
 def crash_record(
-    *, seed: int, fault_rate: float, projection: bool, objects: Sequence[str], error: str
+    *,
+    seed: int,
+    fault_rate: float,
+    projection: bool,
+    objects: Sequence[str],
+    error: str,
+    robot: str,
 ) -> dict[str, Any]:
     """The record of a run that crashed or whose worker died: ``error`` says how; its
     ``planned`` objects count as not delivered in the campaign's summary."""
     return {
+        "robot": robot,
         "seed": seed,
         "fault_rate": fault_rate,
         "projection": projection,

@@ -29,7 +29,15 @@ import cpl
 from aiocram.foresight import foresight_records
 from aiocram.truth import TruthObserver
 
-from ._config import DEFAULT_OBJECTS, DemoConfig, DemoConfigError, fault_profile, learned_priors
+from ._config import (
+    DEFAULT_OBJECTS,
+    DEFAULT_ROBOT,
+    DemoConfig,
+    DemoConfigError,
+    fault_profile,
+    learned_priors,
+    robot_description,
+)
 from ._outputs import OUTPUT_FILES, STALE, route_plan_logs, write_pictures
 from ._report import DemoReport
 
@@ -195,6 +203,7 @@ def run_demo(
 
     del plans  # imported for its action rules
     faults = fault_profile(config)
+    robot = robot_description(config)  # checked by config.check(): a RobotDescription
     preferences = learned_priors(config)  # checked by config.check(): None or usable
     watch = _Watch()
     progress = Progress(config.objects)
@@ -253,7 +262,9 @@ def run_demo(
 
     t0 = time.perf_counter()
     try:
-        true_world, belief_world = make_world_pair(config.seed, objects={}, gui=config.gui)
+        true_world, belief_world = make_world_pair(
+            config.seed, objects={}, gui=config.gui, robot=robot
+        )
         observer = TruthObserver(true_world, belief_world, lambda: watch.tasks)
         transports = _Transports(observer.before_cleanup)
         outcomes = transports.outcomes
@@ -333,12 +344,12 @@ def _record_experience(config: DemoConfig, report: DemoReport, files: list[Path]
     """Record the finished run in the experience store (after the run, off its control
     path); an SQLite store is listed with the files written. A store that fails now (it
     was checked before the run) is reported on stderr: the run's own outputs stand."""
-    from aiocram.experience import StoreError, record_run, robot_name, store_url
+    from aiocram.experience import StoreError, record_run, store_url
 
     assert config.store is not None
     faults = config.faults if isinstance(config.faults, str) else None
     try:
-        report.store_s = record_run(config.store, report, robot=robot_name(), faults=faults)
+        report.store_s = record_run(config.store, report, robot=report.robot, faults=faults)
     except StoreError as exc:
         print(f"aiocram demo: the run was not recorded: {exc}", file=sys.stderr)
         return
@@ -379,12 +390,14 @@ def run_demo_once(
     runs: int = 3,
     experience: bool = False,
     learned: str | None = None,
+    robot: str = DEFAULT_ROBOT,
 ) -> dict[str, Any]:
     """One headless campaign run at a uniform fault rate (seeded by ``seed``); the JSON
     record of :class:`DemoReport`. ``experience=True``: the record also carries the run's
     experience-store rows under ``"experience"`` (:func:`aiocram.experience.run_rows`,
     read from the run's task tree after the run), for the campaign to write. ``learned``:
-    a learned-priors file the run orders its choices by (``--learned``)."""
+    a learned-priors file the run orders its choices by (``--learned``). ``robot``: the
+    robot's name in the ``robots`` package (``--robots``)."""
     from projection import FaultProfile
 
     config = DemoConfig(
@@ -395,17 +408,18 @@ def run_demo_once(
         faults=FaultProfile.uniform(fault_rate, seed=seed),
         live=False,
         learned=learned,
+        robot=robot,
     )
     report = run_demo(config)
     record = report.to_json()
     record["fault_rate"] = fault_rate
     if experience:
-        from aiocram.experience import robot_name, run_rows
+        from aiocram.experience import run_rows
 
         record["experience"] = run_rows(
             {**record, "wall_time_s": report.wall_time_s},
             report.root,
-            robot=robot_name(),
+            robot=report.robot,
             source="campaign",
             faults=f"{fault_rate:g}",
         )

@@ -90,7 +90,7 @@ def outcome_table(report: DemoReport, width: int = 80) -> Any:
             cut = min(sum(text) - room, text[i] - min(floors[i], text[i]))
             text[i] -= max(0, cut)
     table = Table(
-        title=f"table setting, seed {report.config.seed}"
+        title=f"table setting by {report.robot}, seed {report.config.seed}"
         f" ({'with' if report.config.projection else 'without'} projection reasoning)",
         caption="dist: m driven · sim: simulated s · imag: wall s imagining",
     )

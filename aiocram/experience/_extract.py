@@ -45,12 +45,18 @@ def current_commit() -> str | None:
     return rev if done.returncode == 0 and len(rev) == 40 else None
 
 
-def robot_name() -> str:
-    """The name of the robot the demo runs (recorded with each run). The one place that
-    asks: where the robot becomes a choice, this reads the choice."""
-    from projection._world_base import ROBOT
+def robot_name(robot: Any) -> str:
+    """The name recorded with a run (the ``robot`` column): ``robot`` is the run's
+    :class:`executive.RobotDescription` (its ``name``) or that name already. Anything
+    else is a :class:`TypeError` naming what to pass: a run is never recorded under a
+    robot it did not run."""
+    from executive import RobotDescription
 
-    return ROBOT
+    if isinstance(robot, RobotDescription):
+        return robot.name
+    if isinstance(robot, str) and robot:
+        return robot
+    raise TypeError(f"robot_name() takes the run's RobotDescription or its name, got {robot!r}")
 
 
 def _now() -> str:

@@ -17,6 +17,9 @@ Fixtures:
 - ``projection_world`` / ``projected_robot`` (need the ``projection`` package, imported only
   when used): a fresh PyBullet world per test, and its six process modules:
   ``await projected_robot.run(plan)``.
+- ``robot_description``: the robot the projection fixtures load, the PR2-like robot by
+  default; parametrize it (``@pytest.mark.parametrize("robot_description",
+  [robots.by_name("panda")])``) or define a fixture of that name to run a test on another.
 
 The cpl fixtures import only ``cpl``: a plan library without ``executive`` or
 ``projection`` can use them.
@@ -43,6 +46,7 @@ __all__ = [
     "fake_robot",
     "projected_robot",
     "projection_world",
+    "robot_description",
 ]
 
 
@@ -145,11 +149,22 @@ def fake_robot() -> FakeRobot:
 
 
 @pytest.fixture
-def projection_world() -> Iterator[Any]:
-    """A fresh ``projection.World(seed=0)`` (PyBullet, DIRECT), closed after the test."""
+def robot_description() -> Any:
+    """The :class:`executive.RobotDescription` the projection fixtures load: the PR2-like
+    robot (``robots.by_name("pr2")``). Parametrize it, or define a fixture of this name,
+    to test plans on another robot."""
+    import robots
+
+    return robots.by_name("pr2")
+
+
+@pytest.fixture
+def projection_world(robot_description: Any) -> Iterator[Any]:
+    """A fresh ``projection.World(seed=0, robot=robot_description)`` (PyBullet, DIRECT),
+    closed after the test."""
     from projection import World
 
-    with World(seed=0) as world:
+    with World(seed=0, robot=robot_description) as world:
         yield world
 
 

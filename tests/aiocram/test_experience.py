@@ -346,6 +346,7 @@ def test_a_crashed_run_is_recorded_and_a_run_not_written_is_counted(tmp_path, mo
     monkeypatch.setattr(engine, "LOCK_TIMEOUT_S", 0.2)
     sink = CampaignStore(tmp_path / "e.sqlite")
     crashed = {
+        "robot": "pr2",
         "seed": 7,
         "fault_rate": 0.1,
         "projection": True,

@@ -50,7 +50,14 @@ def test_the_plugin_is_registered_as_a_pytest11_entry_point() -> None:
     eps = meta["project"]["entry-points"]["pytest11"]
     assert eps == {PLUGIN: PLUGIN}
     module = importlib.import_module(eps[PLUGIN])
-    for name in ("cpl_run", "cpl_checker", "cpl_top_level", "fake_robot", "projected_robot"):
+    for name in (
+        "cpl_run",
+        "cpl_checker",
+        "cpl_top_level",
+        "fake_robot",
+        "projected_robot",
+        "robot_description",
+    ):
         assert hasattr(module, name)
 
 
@@ -227,6 +234,26 @@ def test_projected_robot_fixture_moves_the_true_world(pytester: pytest.Pytester)
 
         def test_fresh_world(projection_world):
             assert not projection_world.robot_pose().isclose(GOAL, 1e-6, 1e-6)
+        """
+    )
+    result = pytester.runpytest(*P)
+    result.assert_outcomes(passed=2)
+
+
+def test_the_projection_fixtures_load_the_robot_description_fixture(
+    pytester: pytest.Pytester,
+) -> None:
+    pytester.makepyfile(
+        """
+        import pytest
+        import robots
+
+        def test_default(projection_world):
+            assert projection_world.robot is robots.by_name("pr2")
+
+        @pytest.mark.parametrize("robot_description", [robots.by_name("panda")])
+        def test_chosen(projection_world, robot_description):
+            assert projection_world.robot is robot_description
         """
     )
     result = pytester.runpytest(*P)
