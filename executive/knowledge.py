@@ -1,5 +1,6 @@
-"""Robot-independent object knowledge (CRAM's ``kr-pp`` grasping tables at HEAD) and the
-arm configurations of the PR2-like robot.
+"""Robot-independent object knowledge (CRAM's ``kr-pp`` grasping tables at HEAD). What is
+robot-specific (arms, tool frames, the standard-gripper -> tool rotation, named arm
+configurations) is in the robot's :class:`executive.RobotDescription`.
 
 Per object type: its grasps in CRAM's enumeration order, each with the grasp translation
 and the *standard-gripper* rotation (CRAM's standard rotations table: the matrix's third
@@ -26,19 +27,12 @@ import numpy as np
 from executive._pose import Pose, Transform
 
 __all__ = [
-    "ARMS",
-    "ARM_CONFIGURATIONS",
-    "ARM_JOINTS",
-    "ARM_PREFIX",
-    "GRIPPER_MAX_OPENING",
     "LIFT_OFFSET",
     "LYING_TILT",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
-    "STANDARD_TO_PR2_ROTATION",
     "Grasp",
     "ObjectKnowledge",
-    "arm_configuration",
     "grasp",
     "grasp_poses",
     "grasps",
@@ -46,58 +40,13 @@ __all__ = [
     "gripping_effort",
     "known_types",
     "object_knowledge",
-    "tool_frame",
-    "wrist_link",
 ]
 
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
 
-#: Arms in CRAM's enumeration order (pick-up tries the right arm first).
-ARMS: tuple[str, ...] = ("right", "left")
-#: The widest opening (m) of the PR2-like robot's gripper: the distance between the finger
-#: pads, each finger opening up to 0.05 m (``setting-gripper`` positions are checked
-#: against it before the gripper moves).
-GRIPPER_MAX_OPENING: float = 0.10
-
-#: Link and joint name prefix of each arm (``l_shoulder_pan_joint``, ``r_gripper_tool_frame``).
-ARM_PREFIX: Mapping[str, str] = MappingProxyType({"left": "l", "right": "r"})
-
-
-def tool_frame(arm: str) -> str:
-    """The tool frame link of ``arm`` (``l_gripper_tool_frame``); unknown arm: LookupError."""
-    return f"{_prefix(arm)}_gripper_tool_frame"
-
-
-def wrist_link(arm: str) -> str:
-    """The link an object held by ``arm`` hangs from (``l_wrist_roll_link``)."""
-    return f"{_prefix(arm)}_wrist_roll_link"
-
-
-def _prefix(arm: str) -> str:
-    try:
-        return ARM_PREFIX[arm]
-    except (KeyError, TypeError):
-        raise LookupError(f"unknown arm {arm!r}; known arms: left, right") from None
-
-
-#: The 7 arm joints of one side, without the ``l_``/``r_`` prefix, root to tip.
-ARM_JOINTS: tuple[str, ...] = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "upper_arm_roll_joint",
-    "elbow_flex_joint",
-    "forearm_roll_joint",
-    "wrist_flex_joint",
-    "wrist_roll_joint",
-)
-
 #: The global lift offset (object frame), CRAM HEAD.
 LIFT_OFFSET: Vec3 = (0.0, 0.0, 0.15)
-
-#: Standard-gripper -> PR2 tool-frame rotation (rows), so that the PR2 tool x axis is the
-#: standard gripper's approach axis z.
-STANDARD_TO_PR2_ROTATION: Mat3 = ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0))
 
 #: CRAM's standard grasp rotations (rows), keyed by grasp; the third column is the approach.
 STANDARD_ROTATIONS: Mapping[str, Mat3] = MappingProxyType(
@@ -370,40 +319,3 @@ def grasp_poses(
             m[2, 3] += up
         out.append(Transform.from_matrix(m, frame).to_pose())
     return out
-
-
-# ----------------------------------------------------------------- PR2-like arm states
-#: Named arm configurations (7 joint values, ARM_JOINTS order) of the PR2-like robot in
-#: :mod:`projection`. ``carry``: forearms tucked in front of the torso; ``park``: arms at
-#: the sides. Both are self-collision-free and inside the 0.65 m base footprint (tested).
-ARM_CONFIGURATIONS: Mapping[str, Mapping[str, tuple[float, ...]]] = MappingProxyType(
-    {
-        "park": MappingProxyType(
-            {
-                "left": (0.116, 1.042, 3.418, -2.174, 3.064, -0.452, -1.497),
-                "right": (-0.116, 1.042, -3.418, -2.174, -3.064, -0.452, 1.497),
-            }
-        ),
-        "carry": MappingProxyType(
-            {
-                "left": (0.22, 1.294, 1.566, -2.321, -2.37, -0.284, 0.282),
-                "right": (-0.16, 1.018, -1.309, -2.22, 1.187, -0.059, -0.594),
-            }
-        ),
-    }
-)
-
-
-def arm_configuration(name: str, arm: str) -> tuple[float, ...]:
-    """Joint values of a named configuration for ``arm`` ("left"/"right");
-    unknown -> :class:`LookupError` naming the known ones."""
-    try:
-        config = ARM_CONFIGURATIONS[name]
-    except KeyError:
-        raise LookupError(
-            f"unknown arm configuration {name!r}; known: {', '.join(ARM_CONFIGURATIONS)}"
-        ) from None
-    try:
-        return config[arm]
-    except KeyError:
-        raise LookupError(f"unknown arm {arm!r}; known arms: {', '.join(ARMS)}") from None

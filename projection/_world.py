@@ -43,7 +43,7 @@ Poses are :class:`executive._pose.Pose` in ``map`` or ``base_footprint``.
 from __future__ import annotations
 
 from executive._robot import RobotDescription
-from projection._world_base import ASSETS, DEFAULT_TORSO, FRAMES, KITCHEN, ROBOT
+from projection._world_base import ASSETS, DEFAULT_TORSO, FRAMES, KITCHEN
 from projection._world_collisions import COLLISION_TOLERANCE, Contact
 from projection._world_containers import Containers
 from projection._world_grippers import Grippers
@@ -60,7 +60,6 @@ __all__ = [
     "FRAMES",
     "IK_CACHE_SIZE",
     "KITCHEN",
-    "ROBOT",
     "TORSO_STEP",
     "Contact",
     "PerceivedObject",

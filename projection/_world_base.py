@@ -33,7 +33,6 @@ __all__ = [
     "DEFAULT_TORSO",
     "FRAMES",
     "KITCHEN",
-    "ROBOT",
     "SPAWN_OVERLAP",
     "BadObjectPose",
     "SpawnOverlap",
@@ -45,8 +44,6 @@ ASSETS = Path(__file__).resolve().parent / "assets"
 #: its robot's ``torso.default``.
 DEFAULT_TORSO = 0.15
 FRAMES = ("map", "base_footprint")
-#: The PR2-like robot's body name; a world's robot is called ``world.robot.name``.
-ROBOT = "pr2"
 KITCHEN = "kitchen"
 #: How deep (m) a new object may reach into another object or the robot when spawned: more
 #: is an overlap (:class:`SpawnOverlap`), which physics would resolve by throwing objects.

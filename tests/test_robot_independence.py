@@ -37,7 +37,6 @@ PR2_CONSTANTS = frozenset(
     }
 )
 #: Where those definitions live (skipped as a whole, statement by statement).
-KNOWLEDGE = Path("executive") / "knowledge.py"
 
 #: An f-string's literal part at least this long that occurs inside a robot's joint or
 #: link name is a name being assembled (``f"{prefix}_gripper_tool_frame"``); shorter ones
@@ -182,9 +181,7 @@ def violations(root: Path, words: frozenset[str]) -> list[str]:
     for path in _files(root):
         rel = path.relative_to(root)
         allowed = contract_fields() if rel == CONTRACT else frozenset()
-        found = robot_spellings(
-            path.read_text(), words, legacy=rel == KNOWLEDGE, allowed=allowed, names=names
-        )
+        found = robot_spellings(path.read_text(), words, allowed=allowed, names=names)
         out += [f"{rel}:{v}" for v in found]
     return out
 

@@ -10,8 +10,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from executive import ContainerOpeningProbe, ManipulationGoalInCollision, Pose, knowledge
+from executive import ContainerOpeningProbe, ManipulationGoalInCollision, Pose
 from projection import ProjectedWorldModel, World
+from robots.pr2 import DESCRIPTION as PR2
 
 DRAWER = "sink_area_left_upper_drawer_main"
 #: Where the seed-1 demo opened the spoon drawer with the left arm, the right in carry.
@@ -66,7 +67,7 @@ def test_a_park_that_would_end_inside_an_open_drawer_is_rejected(
     world.park_arms("park")
     world.open_container(DRAWER, 0.3)
     world.drive(PARKED_NEXT_TO_IT)  # the drawer stands open in front of the right arm
-    carry = {arm: knowledge.arm_configuration("carry", arm) for arm in knowledge.ARMS}
+    carry = {arm: PR2.arm(arm).state("carry") for arm in PR2.arm_names}
     touching = {c.link_b for c in world.robot_collisions()}
     assert DRAWER not in touching  # parked, the arms are clear of it
     result = model.probe_arm_configuration(left=carry["left"], right=carry["right"])

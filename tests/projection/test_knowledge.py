@@ -7,6 +7,7 @@ import pytest
 
 from executive import knowledge
 from executive._pose import Pose
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 
@@ -15,7 +16,7 @@ def test_grasp_enumeration_order() -> None:
     assert knowledge.grasps("milk") == ("back", "left-side", "right-side", "front")
     assert knowledge.grasps("breakfast-cereal") == ("back", "front")
     assert knowledge.grasps("bowl") == ("top",)
-    assert knowledge.ARMS == ("right", "left")
+    assert PR2.arm_names == ("right", "left")
 
 
 def test_unknown_type_and_grasp_name_the_known_ones() -> None:
@@ -23,8 +24,8 @@ def test_unknown_type_and_grasp_name_the_known_ones() -> None:
         knowledge.grasps("teapot")
     with pytest.raises(LookupError, match="known grasps: back, front"):
         knowledge.grasp("breakfast-cereal", "top")
-    with pytest.raises(LookupError, match="known: park, carry"):
-        knowledge.arm_configuration("dance", "left")
+    with pytest.raises(LookupError, match="park"):
+        PR2.arm("left").state("dance")
 
 
 def test_back_grasp_of_an_object_ahead_is_the_identity_tool_rotation() -> None:
@@ -66,8 +67,8 @@ def test_standard_rotations_are_proper() -> None:
 
 def test_arm_configurations_have_seven_values() -> None:
     for name in ("park", "carry"):
-        for arm in knowledge.ARMS:
-            assert len(knowledge.arm_configuration(name, arm)) == 7
+        for arm in PR2.arm_names:
+            assert len(PR2.arm(arm).state(name)) == 7
 
 
 def test_a_lying_carton_is_grasped_from_above_and_lifted_straight_up() -> None:

@@ -22,6 +22,7 @@ from executive.failures import (
     TorsoGoalNotReached,
 )
 from projection import World
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
@@ -247,7 +248,7 @@ def test_move_joints_and_named_configurations(world: World) -> None:
         world.move_joints(right=(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0))  # elbow > 0
     assert world.arm_joints("left") == pytest.approx(q)
     world.park_arms("carry")
-    assert world.arm_joints("right") == pytest.approx(knowledge.arm_configuration("carry", "right"))
+    assert world.arm_joints("right") == pytest.approx(PR2.arm("right").state("carry"))
     with pytest.raises(LookupError, match="known: park, carry"):
         world.park_arms("wave")
 

@@ -16,10 +16,11 @@ from projection import World
 from projection._collision_model import CollisionModel
 from projection._motion_planner import ArmMotionPlanner, ArmTrajectory, time_parameterise
 from projection._objects import object_type
+from robots.pr2 import ARM_JOINTS
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
-RIGHT = [f"r_{j}" for j in knowledge.ARM_JOINTS]
+RIGHT = [f"r_{j}" for j in ARM_JOINTS]
 TOOL = "r_gripper_tool_frame"
 #: Between the robot at SINK_NAV and the cup: the right arm's straight joint-space line
 #: from ``carry`` to the cup's back pregrasp sweeps through a cereal box here.
@@ -290,7 +291,7 @@ def test_one_model_serves_both_arms() -> None:
     other arm's pairs, computed afterwards, are those of a fresh model."""
     with World(seed=0) as world:
         world.park_arms("carry")
-        left = [f"l_{j}" for j in knowledge.ARM_JOINTS]
+        left = [f"l_{j}" for j in ARM_JOINTS]
         with CollisionModel.from_world(world) as fresh, CollisionModel.from_world(world) as shared:
             right_chain = fresh.chain(RIGHT, TOOL, ["r_gripper_palm_link"])
             expected = fresh.self_pairs(right_chain)
@@ -380,7 +381,7 @@ def test_contacts_of_the_robot_parts_that_do_not_move_are_not_the_motions(sink: 
     right = _planner(sink)
     left_touch = [n for n in sink.link_names if n.startswith("l_gripper")]
     left = ArmMotionPlanner.for_world(
-        sink, [f"l_{j}" for j in knowledge.ARM_JOINTS], "l_gripper_tool_frame", left_touch
+        sink, [f"l_{j}" for j in ARM_JOINTS], "l_gripper_tool_frame", left_touch
     )
     try:
         assert right.collisions(sink.arm_joints("right")) == []

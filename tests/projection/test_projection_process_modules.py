@@ -31,6 +31,7 @@ from executive import (
 from executive.events import ObjectPerceived, subscribe
 from projection import ProjectedWorldModel, World, with_projected_robot
 from projection._process_modules import projection_process_modules
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
@@ -176,7 +177,7 @@ def test_opening_gripper_and_gripping_a_cup(mrun: Any, sink: World) -> None:
 
 def test_moving_tcp_and_arm_joints(mrun: Any, sink: World) -> None:
     left = Pose((0.55, 0.2, 1.0), frame="base_footprint")
-    carry = knowledge.arm_configuration("carry", "right")
+    carry = PR2.arm("right").state("carry")
 
     async def body() -> None:
         await perform(a.motion(type="moving-tcp", left_pose=left))

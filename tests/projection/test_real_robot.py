@@ -38,6 +38,7 @@ from projection._real_body import (
     DETECTION_TIME,
     TORSO_VELOCITY,
 )
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
@@ -130,7 +131,7 @@ def test_driving_through_the_counter_stops_before_it(pair: tuple[World, World]) 
 
 def test_torso_and_arm_motions_take_delta_over_velocity(pair: tuple[World, World]) -> None:
     true, belief = pair
-    carry = knowledge.arm_configuration("carry", "left")
+    carry = PR2.arm("left").state("carry")
 
     async def main() -> tuple[float, float]:
         async with real(true, belief):
@@ -142,7 +143,7 @@ def test_torso_and_arm_motions_take_delta_over_velocity(pair: tuple[World, World
 
     torso_time, arm_time = run(main)
     assert torso_time == pytest.approx(0.10 / TORSO_VELOCITY, abs=1e-6)
-    park = knowledge.arm_configuration("park", "left")
+    park = PR2.arm("left").state("park")
     delta = max(abs(p - q) for p, q in zip(park, carry))
     assert arm_time == pytest.approx(delta / ARM_JOINT_VELOCITY, abs=1e-6)
     assert true.torso_height == pytest.approx(0.25)

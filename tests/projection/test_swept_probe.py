@@ -13,6 +13,7 @@ import cpl
 from cpl.testing import MockClock
 from executive import ManipulationGoalInCollision, Pose, a, knowledge, perform
 from projection import FaultProfile, ProjectedWorldModel, World, make_world_pair, with_real_robot
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
@@ -115,7 +116,7 @@ def test_swept_must_be_a_bool(pair: tuple[World, World]) -> None:
 
 
 # ------------------------------------------------------------------ configuration moves
-CARRY = {a: knowledge.arm_configuration("carry", a) for a in ("left", "right")}
+CARRY = {a: PR2.arm(a).state("carry") for a in ("left", "right")}
 
 
 def _hand_around_the_cup(world: World) -> None:

@@ -13,6 +13,7 @@ from executive import knowledge
 from executive._pose import Pose
 from projection import World
 from projection._objects import OBJECT_TYPES
+from robots.pr2 import DESCRIPTION as PR2
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
 
 SINK_NAV = Pose.from_xyz_yaw(0.75, 0.70, 0.0, 0.0)
@@ -41,7 +42,7 @@ def world() -> Iterator[World]:
 def test_new_world_defaults(world: World) -> None:
     assert world.robot_pose().isclose(Pose(), 1e-9, 1e-9)
     assert world.torso_height == pytest.approx(0.15)
-    assert world.arm_joints("left") == pytest.approx(knowledge.arm_configuration("park", "left"))
+    assert world.arm_joints("left") == pytest.approx(PR2.arm("left").state("park"))
     assert world.joint_position("sink_area_left_upper_drawer_main_joint") == 0.0
     assert world.gripper_opening("right") == pytest.approx(0.10)
     assert not world.robot_in_collision()
@@ -239,7 +240,7 @@ def test_island_surface_covers_the_placing_poses(world: World) -> None:
 def _reachable(world: World, obj_type: str, pose: Pose, waypoints: tuple[int, ...]) -> bool:
     base = world.robot_pose()
     obj_in_base = Pose(*_rel(base, pose), frame="base_footprint").to_transform("obj")
-    for arm in knowledge.ARMS:
+    for arm in PR2.arm_names:
         for g in knowledge.grasps(obj_type):
             poses = knowledge.grasp_poses(obj_type, g, obj_in_base, PR2_TOOL)
             snap = world.snapshot()

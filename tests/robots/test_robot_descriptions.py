@@ -15,7 +15,6 @@ from executive import (
     KinematicTree,
     RobotDescription,
     RobotDescriptionError,
-    knowledge,
 )
 from projection import (
     _costmaps,
@@ -37,22 +36,27 @@ def client():
     pb.disconnect(physicsClientId=c)
 
 
-def test_pr2_description_agrees_with_knowledge_and_projection() -> None:
-    assert PR2.arm_names == knowledge.ARMS
+def test_pr2_description_holds_the_pr2_facts_and_agrees_with_the_projection() -> None:
+    """The PR2-like robot's facts (they were executive.knowledge's constants before the
+    robot became data): CRAM's arm order, l_/r_ names, the tool and wrist links, the
+    standard-gripper -> tool rotation, the 0.10 m gripper, park and carry."""
+    assert PR2.arm_names == ("right", "left")
     assert PR2.urdf() == _world_base.ASSETS / "pr2.urdf"
     for arm in PR2.arms:
-        p = knowledge.ARM_PREFIX[arm.name]
-        assert arm.joints == tuple(f"{p}_{j}" for j in knowledge.ARM_JOINTS)
-        assert arm.tool_frame == knowledge.tool_frame(arm.name)
-        assert arm.hand_link == knowledge.wrist_link(arm.name)
-        assert arm.standard_to_tool == knowledge.STANDARD_TO_PR2_ROTATION
-        assert arm.gripper.max_opening == knowledge.GRIPPER_MAX_OPENING
+        p = arm.name[0]
+        assert arm.joints == tuple(f"{p}_{j}" for j in pr2.ARM_JOINTS)
+        assert len(arm.joints) == 7
+        assert arm.tool_frame == f"{p}_gripper_tool_frame"
+        assert arm.hand_link == f"{p}_wrist_roll_link"
+        assert arm.standard_to_tool == ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0))
+        assert arm.gripper.max_opening == 0.10
         assert arm.gripper.open_position == _urdf.FINGER_MAX
-        assert set(arm.states) == set(knowledge.ARM_CONFIGURATIONS)
-        for name in arm.states:
-            assert arm.state(name) == knowledge.arm_configuration(name, arm.name)
+        assert set(arm.states) == {"park", "carry"}
+        assert all(len(arm.state(name)) == 7 for name in arm.states)
         assert arm.reach.in_reach_distance == _costmaps.IN_REACH_DISTANCE
         assert arm.reach.minimal_distance == _costmaps.REACH_MINIMAL_DISTANCE
+    # the two arms mirror each other: the shoulder pan of park is +-0.116
+    assert PR2.arm("left").state("park")[0] == -PR2.arm("right").state("park")[0] == 0.116
     assert PR2.torso.default == _world_base.DEFAULT_TORSO
     camera = PR2.neck.camera
     assert camera.vertical_fov == pytest.approx(_world_perception._CAMERA_FOV_Y)
