@@ -50,7 +50,8 @@ def queries(world: World) -> list[tuple[str, str, tuple[float, ...], tuple[float
             tf = world.object_pose(name, "base_footprint").to_transform(name)
             for grasp in object_type(otype).grasps:
                 try:
-                    world.move_tcp(**{arm: knowledge.grasp_poses(otype, grasp, tf)[0]})
+                    tool = world.robot.arm(arm).standard_to_tool
+                    world.move_tcp(**{arm: knowledge.grasp_poses(otype, grasp, tf, tool)[0]})
                 except ManipulationPoseUnreachable:
                     continue
                 goal = world.arm_joints(arm)
@@ -81,11 +82,9 @@ def main() -> None:
     free = {n for n in world.objects if n not in world.attachments}
     planners = {}
     for arm in ("right", "left"):
-        p = knowledge.ARM_PREFIX[arm]
-        touch = [n for n in world.link_names if n.startswith(f"{p}_gripper")]
-        planners[arm] = ArmMotionPlanner.for_world(
-            world, [f"{p}_{j}" for j in knowledge.ARM_JOINTS], knowledge.tool_frame(arm), touch
-        )
+        desc = world.robot.arm(arm)
+        touch = [n for n in world.link_names if n.startswith(f"{arm[0]}_gripper")]
+        planners[arm] = ArmMotionPlanner.for_world(world, desc.joints, desc.tool_frame, touch)
     print(f"{len(qs)} queries (carry -> pregrasp at the sink counter), seeds 0..{seeds - 1}")
     ours_t: list[float] = []
     base_t: list[float] = []
@@ -179,7 +178,7 @@ def main() -> None:
     world.move_joints(right=qs[0][2])
     t0 = time.perf_counter()
     other = ArmMotionPlanner.for_world(
-        world, chain.joints, knowledge.tool_frame("right"), ["r_gripper_palm_link"]
+        world, chain.joints, world.robot.arm("right").tool_frame, ["r_gripper_palm_link"]
     )
     built = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -61,10 +61,10 @@ def main() -> None:
         # IK: one verified solve (current torso) vs one raw calculateInverseKinematics,
         # cold (the world's IK memo cleared before every call) and cached
         obj = w.object_pose("cup", "base_footprint").to_transform("cup")
-        waypoints = knowledge.grasp_poses("cup", "back", obj)
+        waypoints = knowledge.grasp_poses("cup", "back", obj, w.robot.arm("right").standard_to_tool)
         goal = waypoints[2]
         goal_map = w.robot_pose().to_transform("base_footprint") * goal
-        park = knowledge.arm_configuration("park", "right")
+        park = w.robot.arm("right").state("park")
 
         def ik_cold() -> None:
             w.move_joints(right=park)
