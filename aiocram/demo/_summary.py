@@ -142,6 +142,15 @@ def print_report(report: DemoReport, console: Any) -> None:
         f"{report.delivered}/{n} objects delivered (true world; the plan claimed {report.claimed})"
     )
     console.print(f"simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time")
+    if report.knocks is not None and report.knocks.knocks:
+        from rich.text import Text
+
+        knocked = report.knocks.knocked
+        console.print(
+            Text(f"{len(knocked)} object(s) knocked (true world): ")
+            + Text("; ".join(f"{k.object} by {k.motion.describe()}" for k in report.knocks.knocks)),
+            soft_wrap=True,
+        )
     if report.truth is not None and report.truth.cleanup_intervened:
         console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     if report.cleanup_failures:

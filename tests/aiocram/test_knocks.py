@@ -222,3 +222,92 @@ def test_a_push_during_the_cups_pick_up_knocks_a_neighbour_not_the_cup(
         assert knock.motion.kind == "moving-tcp" and knock.motion.subject == "cup-1"
         assert knock.motion.action == "picking-up"
         assert knock.angle == pytest.approx(0.15, abs=0.03)
+
+
+# ------------------------------------------------------------------- the campaign
+def _record(seed: int, proj: bool, knocks: list[tuple[str, str, list[str], str]]) -> Any:
+    """A run record as the demo writes it, with ``knocks``: (object, motion, arms,
+    action)."""
+    from aiocram.campaign import INVARIANTS
+
+    return {
+        "seed": seed,
+        "fault_rate": 0.0,
+        "projection": proj,
+        "objects": {"o": {"claimed": True, "delivered": True, "where": "island"}},
+        "invariants": dict.fromkeys(INVARIANTS, True),
+        "violations": {},
+        "knocked": list(dict.fromkeys(k[0] for k in knocks)),
+        "knocks": [
+            {"object": o, "motion": m, "arms": arms, "action": act} for o, m, arms, act in knocks
+        ],
+        "drifted": [],
+    }
+
+
+def test_the_campaign_counts_knocked_objects_per_cell_and_by_motion() -> None:
+    from aiocram.campaign import knock_lines, summarise
+
+    runs = [
+        _record(
+            1,
+            True,
+            [
+                ("cup-1", "moving-tcp", ["right"], "picking-up"),
+                ("cup-1", "going", [], "navigating"),  # the same object again
+                ("bowl-1", "moving-tcp", ["right"], "placing"),
+            ],
+        ),
+        _record(2, True, []),
+        _record(1, False, [("milk-1", "moving-arm-joints", ["left"], "parking-arms")]),
+        {  # a crashed run: nothing measured, counts zero
+            "seed": 2,
+            "fault_rate": 0.0,
+            "projection": False,
+            "error": "RuntimeError: x",
+            "objects": {},
+            "planned": ["o"],
+            "invariants": {},
+        },
+    ]
+    rows = {r["projection"]: r for r in summarise(runs)["rows"]}
+    assert (rows[True]["knocked"], rows[True]["knocks"], rows[True]["runs_knocking"]) == (2, 3, 1)
+    assert rows[True]["knocked_by"] == {"going": 1, "moving-tcp right": 2}
+    assert rows[True]["knocked_in"] == {"navigating": 1, "picking-up": 1, "placing": 1}
+    assert (rows[False]["knocked"], rows[False]["runs_knocking"]) == (1, 1)
+    assert knock_lines(summarise(runs)["rows"]) == [
+        "knocked (without projection, faults 0): moving-arm-joints left 1",
+        "knocked (with projection, faults 0): moving-tcp right 2, going 1",
+    ]
+
+
+# ----------------------------------------------------------------------- the demo
+def test_the_demo_reports_a_knock_in_its_record_and_summary() -> None:
+    """A plan handed to the demo drives the base while a box beside the route is pushed
+    in the true world: the report, its JSON record (what the campaign aggregates) and
+    the console summary name the box and the drive."""
+    from rich.console import Console
+
+    from aiocram.demo import DemoConfig, print_report, run_demo
+
+    async def drive_past_a_push(world: Any, config: Any) -> dict[str, Any]:
+        world.spawn_object(NEIGHBOUR, "breakfast-cereal", ASIDE)
+
+        async def push() -> None:
+            await cpl.sleep(0.5)
+            p = world.object_pose(NEIGHBOUR)
+            x, y, z = p.position
+            world.set_object_pose(NEIGHBOUR, Pose((x, y - 0.04, z), p.orientation))
+
+        await cpl.par(perform(a.motion(type="going", pose=SINK_NAV)), push())
+        return {}
+
+    config = DemoConfig(objects=("bowl",), seed=1, live=False, projection=False)
+    report = run_demo(config, plan=drive_past_a_push)
+    assert report.knocks is not None and report.knocks.knocked == [NEIGHBOUR]
+    record = report.to_json()
+    assert record["knocked"] == [NEIGHBOUR]
+    assert [(k["object"], k["motion"]) for k in record["knocks"]] == [(NEIGHBOUR, "going")]
+    console = Console(width=100, record=True, color_system=None)
+    print_report(report, console)
+    assert f"1 object(s) knocked (true world): {NEIGHBOUR} by going" in console.export_text()
