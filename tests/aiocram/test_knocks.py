@@ -167,13 +167,15 @@ def test_tolerances_are_checked() -> None:
         KnockWatcher(object(), angle=-1.0)
 
 
-class _TurnDuringReach(cpl.Instrument):
-    """Turns object ``name`` by 0.15 rad about the vertical in the true world when the
-    first real ``moving-tcp`` inside a ``picking-up`` starts (an injected push, during
-    that motion: the watcher, an instrument before this one, has taken its checkpoint)."""
+class _TurnDuring(cpl.Instrument):
+    """Turns object ``name`` by ``angle`` rad about the vertical in the true world when
+    the first real ``moving-tcp`` inside an ``action`` starts while the cup is free (an
+    injected push, during that motion: the watcher, an instrument before this one, has
+    taken its checkpoint). In a ``placing`` that is the retract, after the release."""
 
-    def __init__(self, true: Any, name: str) -> None:
-        self.true, self.name, self.done = true, name, False
+    def __init__(self, true: Any, action: str, name: str, angle: float = 0.15) -> None:
+        self.true, self.action, self.name, self.angle = true, action, name, angle
+        self.done = False
 
     def task_status_changed(self, task: Any, old: Any, new: Any) -> None:
         from executive import action_of
@@ -183,14 +185,16 @@ class _TurnDuringReach(cpl.Instrument):
             return
         if motion.type != "moving-tcp" or cpl.within(task, cpl.Subtree.IMAGINED):
             return
+        if self.action == "placing" and "cup-1" in self.true.attachments:
+            return  # not released yet
         t = task
-        while t is not None and getattr(action_of(t), "type", None) != "picking-up":
+        while t is not None and getattr(action_of(t), "type", None) != self.action:
             t = t.parent
         if t is None:
             return
         self.done = True
         p = self.true.object_pose(self.name)
-        turn = Pose.from_xyz_yaw(0.0, 0.0, 0.0, 0.15).as_rotation()
+        turn = Pose.from_xyz_yaw(0.0, 0.0, 0.0, self.angle).as_rotation()
         self.true.set_object_pose(
             self.name, Pose(p.position, tuple((turn * p.as_rotation()).as_quat()))
         )
@@ -209,7 +213,7 @@ def test_a_push_during_the_cups_pick_up_knocks_a_neighbour_not_the_cup(
         cup = await _detect_cup()
         await perform(an.action(type="fetching", object=cup))
 
-    injector = _TurnDuringReach(true, turned)
+    injector = _TurnDuring(true, "picking-up", turned)
     report = _run(mrun, true, belief, body, injector).report()
     assert injector.done
     assert "cup-1" in true.attachments
@@ -222,6 +226,34 @@ def test_a_push_during_the_cups_pick_up_knocks_a_neighbour_not_the_cup(
         assert knock.motion.kind == "moving-tcp" and knock.motion.subject == "cup-1"
         assert knock.motion.action == "picking-up"
         assert knock.angle == pytest.approx(0.15, abs=0.03)
+
+
+@pytest.mark.parametrize("turned", ["cup-1", "bowl-1"])
+def test_an_object_moving_as_its_own_placing_retracts_is_not_knocked(
+    mrun: Any, worlds: Any, turned: str
+) -> None:
+    """The decision for an object placed unstably: one that moves after its release
+    while its own placing retracts (injected: turned 0.3 rad) is a placing failure, not
+    a knock (``own``; the truth measures it toppled or not delivered). The bowl moved by
+    the same retract is knocked by it."""
+    true, belief = worlds
+    cup_start = true.object_pose("cup-1").position  # put back where it stood
+
+    async def body() -> None:
+        cup = await _detect_cup()
+        fetched = await perform(an.action(type="fetching", object=cup))
+        target = a.location(pose=Pose(cup_start))
+        await perform(an.action(type="delivering", object=fetched, target=target))
+
+    injector = _TurnDuring(true, "placing", turned, angle=0.3)
+    report = _run(mrun, true, belief, body, injector).report()
+    assert injector.done and "cup-1" not in true.attachments
+    if turned == "cup-1":
+        assert report.knocks == [] and report.own == ["cup-1"]
+    else:
+        assert report.knocked == ["bowl-1"]
+        (knock,) = report.knocks
+        assert (knock.motion.action, knock.motion.subject) == ("placing", "cup-1")
 
 
 # ------------------------------------------------------------------- the campaign
