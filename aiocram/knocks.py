@@ -77,6 +77,9 @@ log = logging.getLogger("aiocram.knocks")
 KNOCK_DISTANCE = 0.02
 #: Rotation (rad, about any axis) of an object's true orientation beyond which it moved.
 KNOCK_ANGLE = 0.1
+#: Distance (m) within which the robot (or an object it holds) touches an object at the
+#: end of a motion.
+TOUCH_DISTANCE = 0.001
 #: Motion types that cannot push anything (the camera only looks).
 STILL_MOTIONS = frozenset({"detecting"})
 #: When several causes ran in one interval, the knock names the first of this order (the
@@ -270,6 +273,11 @@ class KnockWatcher(cpl.Instrument):
         self._reference: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {}
         #: motion task -> its Motion; invariant: exactly the real motions started, not dead
         self._active: dict[cpl.Task, Motion] = {}
+        #: free object -> the first real motion that ended with the robot (or what it
+        #: holds) touching it; invariant: only objects touched at the last motion end
+        #: that have not moved since
+        self._pressed: dict[str, Motion] = {}
+        self._robot_links: frozenset[str] | None = None  # the true robot's, on first use
         self._report = KnockReport()
 
     # -- the run's hooks -----------------------------------------------------------
@@ -288,7 +296,9 @@ class KnockWatcher(cpl.Instrument):
             )
         elif new.dead and task in self._active:
             self.checkpoint()
-            del self._active[task]
+            motion = self._active.pop(task)
+            touched = self._touching()
+            self._pressed = {n: self._pressed.get(n, motion) for n in touched}
 
     def subscribe(self, env: Any) -> Callable[[], None]:
         """Take the first checkpoint and watch the events that change the true world in
@@ -335,6 +345,7 @@ class KnockWatcher(cpl.Instrument):
         for name in list(world.objects):
             if name in attached:
                 self._reference.pop(name, None)
+                self._pressed.pop(name, None)
                 continue
             pose = world.object_pose(name)
             position = tuple(float(v) for v in pose.position)
@@ -362,6 +373,9 @@ class KnockWatcher(cpl.Instrument):
         moved: float,
         turned: float,
     ) -> None:
+        pressed = self._pressed.pop(name, None)
+        if pressed is not None:  # left pressed by a motion that ended before
+            causes = [pressed, *(c for c in causes if c is not pressed)]
         if any(name in c.own for c in causes):
             self._report.own.append(name)  # its own pick-up or placing
             log.debug("%s moved %.3f m by its own pick-up or placing", name, moved)
@@ -403,6 +417,32 @@ class KnockWatcher(cpl.Instrument):
             turned,
             "".join(f"; also running: {m.describe()}" for m in knock.others),
         )
+
+    def _touching(self) -> set[str]:
+        """The free objects the true robot, or an object it holds, touches now (a
+        distance query: the physics is left as it is)."""
+        import pybullet as pb
+
+        world = self.true_world
+        c, robot = world.client, world.robot_body
+        if self._robot_links is None:
+            names = {pb.getBodyInfo(robot, physicsClientId=c)[0].decode()}
+            names |= {
+                pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
+                for i in range(pb.getNumJoints(robot, physicsClientId=c))
+            }
+            self._robot_links = frozenset(names)
+        attached = world.attachments
+        bodies = [robot]
+        bodies += [world.body_of(n) for n, link in attached.items() if link in self._robot_links]
+        out = set()
+        for name in world.objects:
+            if name in attached:
+                continue
+            body = world.body_of(name)
+            if any(pb.getClosestPoints(b, body, TOUCH_DISTANCE, physicsClientId=c) for b in bodies):
+                out.add(name)
+        return out
 
     def report(self) -> KnockReport:
         """The knocks and drifts so far (a final checkpoint is taken first)."""

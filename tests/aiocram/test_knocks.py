@@ -33,7 +33,16 @@ def worlds() -> Any:
     belief.close()
 
 
-def _run(mrun: Any, true: Any, belief: Any, body: Any, *extra: cpl.Instrument) -> KnockWatcher:
+def _run(
+    mrun: Any,
+    true: Any,
+    belief: Any,
+    body: Any,
+    *extra: cpl.Instrument,
+    first: tuple[cpl.Instrument, ...] = (),
+) -> KnockWatcher:
+    """Run ``body`` on the real robot with a watcher; ``first``: instruments that see each
+    transition before the watcher, ``extra`` after it."""
     watcher = KnockWatcher(true)
 
     async def main() -> None:
@@ -41,7 +50,7 @@ def _run(mrun: Any, true: Any, belief: Any, body: Any, *extra: cpl.Instrument) -
             watcher.subscribe(env)
             await body()
 
-    mrun(main, instruments=[watcher, *extra])
+    mrun(main, instruments=[*first, watcher, *extra])
     return watcher
 
 
@@ -254,6 +263,47 @@ def test_an_object_moving_as_its_own_placing_retracts_is_not_knocked(
         assert report.knocked == ["bowl-1"]
         (knock,) = report.knocks
         assert (knock.motion.action, knock.motion.subject) == ("placing", "cup-1")
+
+
+class _BoxInTheHand(cpl.Instrument):
+    """When the first real ``moving-arm-joints`` ends, spawns a box overlapping the
+    right gripper in the true world (before the watcher sees the end)."""
+
+    def __init__(self, true: Any) -> None:
+        self.true, self.done = true, False
+
+    def task_status_changed(self, task: Any, old: Any, new: Any) -> None:
+        motion = (task.annotations or {}).get("motion")
+        if self.done or not new.dead or motion is None or motion.type != "moving-arm-joints":
+            return
+        self.done = True
+        frame = self.true.robot.arm("right").tool_frame
+        self.true.spawn_object(
+            NEIGHBOUR, "breakfast-cereal", self.true.link_pose(frame), allow_overlap=True
+        )
+
+
+def test_an_object_left_pressed_by_a_motion_is_knocked_by_that_motion(
+    mrun: Any, worlds: Any
+) -> None:
+    """The right arm's motion ends pressing into a box (injected: the box appears in the
+    gripper as the motion ends); the physics pushes the box out only during the next
+    motion, the left gripper closing. The knock is the right arm's, the closing is
+    listed beside it."""
+    true, belief = worlds
+    carry = true.robot.arm("right").state("carry")
+
+    async def body() -> None:
+        await perform(a.motion(type="moving-arm-joints", right_joint_states=carry))
+        await perform(a.motion(type="closing-gripper", gripper="left"))
+
+    injector = _BoxInTheHand(true)
+    report = _run(mrun, true, belief, body, first=(injector,)).report()
+    assert injector.done
+    assert report.knocked == [NEIGHBOUR]
+    (knock,) = report.knocks
+    assert (knock.motion.kind, knock.motion.arms) == ("moving-arm-joints", ("right",))
+    assert [(m.kind, m.arms) for m in knock.others] == [("closing-gripper", ("left",))]
 
 
 # ------------------------------------------------------------------- the campaign
