@@ -147,10 +147,13 @@ def print_report(report: DemoReport, console: Any) -> None:
 
         knocked = report.knocks.knocked
         console.print(
-            Text(f"{len(knocked)} object(s) knocked (true world): ")
-            + Text("; ".join(f"{k.object} by {k.motion.describe()}" for k in report.knocks.knocks)),
-            soft_wrap=True,
+            f"{len(knocked)} object{'s' if len(knocked) > 1 else ''} knocked by the robot "
+            "(true world; each knock is in plans.log):"
         )
+        for name in knocked:  # one line each: how often, and the first knock's motion
+            knocks = [k for k in report.knocks.knocks if k.object == name]
+            times = f"{len(knocks)} times, first" if len(knocks) > 1 else "once,"
+            console.print(Text(f"  {name}: {times} by {knocks[0].motion.describe()}"))
     if report.truth is not None and report.truth.cleanup_intervened:
         console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     if report.cleanup_failures:

@@ -392,4 +392,6 @@ def test_the_demo_reports_a_knock_in_its_record_and_summary() -> None:
     assert [(k["object"], k["motion"]) for k in record["knocks"]] == [(NEIGHBOUR, "going")]
     console = Console(width=100, record=True, color_system=None)
     print_report(report, console)
-    assert f"1 object(s) knocked (true world): {NEIGHBOUR} by going" in console.export_text()
+    text = console.export_text()
+    assert "1 object knocked by the robot (true world; each knock is in plans.log):" in text
+    assert f"  {NEIGHBOUR}: once, by going" in text
