@@ -24,6 +24,11 @@ checkpoint (each with its motion type and arms) and the event of this checkpoint
   its own placing ends is **not** knocked (it is a placing failure, measured as toppled or
   not delivered by :mod:`aiocram.truth`); once its placing is over, it is an object at
   rest like any other.
+- If the object was not at rest (:data:`AT_REST`, the speeds at which the simulated
+  real robot stops stepping the physics) at the previous checkpoint, and no motion left
+  the robot pressing into it (below), the move **continues** what set it moving (a
+  knock: still rolling, sliding or falling from it, no new knock; its own placing; or a
+  drift): a knocked cup rolling off the counter over three motions is one knock.
 - Else, if some cause is a **pushing** motion (every motion type but ``detecting``, and
   the container events: a drawer opened or closed by the plan moves what stands in it or
   against it), the object was **knocked**: a :class:`Knock` is recorded (which object, by
@@ -33,6 +38,11 @@ checkpoint (each with its motion type and arms) and the event of this checkpoint
 - Else (only perception ran, or nothing: physics caught up while the robot stood still)
   the object **drifted**: logged and counted apart (:attr:`KnockReport.drifted`), never
   silently dropped.
+
+Limit: an object at rest that starts to fall by itself (one left balanced on a counter's
+edge) while a motion runs is counted as knocked by that motion: the watcher sees the
+true world only at checkpoints, not the contacts between them, and a fall from rest is
+almost always a touch by the robot.
 
 Tolerances. 2 cm and 0.1 rad are far above the jitter of an object resting in PyBullet
 (below a millimetre and 0.01 rad over a whole run) and below what any object of the demo
@@ -80,6 +90,9 @@ KNOCK_ANGLE = 0.1
 #: Distance (m) within which the robot (or an object it holds) touches an object at the
 #: end of a motion.
 TOUCH_DISTANCE = 0.001
+#: Linear (m/s) and angular (rad/s) speeds below which an object is at rest: those at which
+#: the simulated real robot stops stepping the physics (``projection._real_body``).
+AT_REST = (1e-3, 1e-2)
 #: Motion types that cannot push anything (the camera only looks).
 STILL_MOTIONS = frozenset({"detecting"})
 #: When several causes ran in one interval, the knock names the first of this order (the
@@ -278,6 +291,12 @@ class KnockWatcher(cpl.Instrument):
         #: that have not moved since
         self._pressed: dict[str, Motion] = {}
         self._robot_links: frozenset[str] | None = None  # the true robot's, on first use
+        #: free object -> what set it moving (a Knock, "own" or "drift"); invariant: the
+        #: objects not at rest at the last checkpoint that moved beyond the tolerance
+        #: since they last were (an object found at rest leaves it)
+        self._in_motion: dict[str, Knock | str] = {}
+        #: free objects not at rest at the last checkpoint
+        self._restless: set[str] = set()
         self._report = KnockReport()
 
     # -- the run's hooks -----------------------------------------------------------
@@ -342,24 +361,32 @@ class KnockWatcher(cpl.Instrument):
         if event is not None:
             causes.append(event)
         attached = world.attachments
+        restless = self._moving_now()
         for name in list(world.objects):
             if name in attached:
                 self._reference.pop(name, None)
                 self._pressed.pop(name, None)
+                self._in_motion.pop(name, None)
                 continue
             pose = world.object_pose(name)
             position = tuple(float(v) for v in pose.position)
             orientation = tuple(float(v) for v in pose.orientation)
             ref = self._reference.get(name)
             self._reference[name] = (position, orientation)
-            if ref is None:
+            if ref is None:  # free from now on: released, or the first checkpoint
+                if name in restless:  # still settling, from its own release or the scene's
+                    own = any(name in c.own for c in causes)
+                    self._in_motion[name] = "own" if own else "drift"
                 continue
             moved = math.dist(ref[0], position)
             turned = _angle(ref[1], orientation)
             if moved <= self.distance and turned <= self.angle:
                 self._reference[name] = ref  # still at rest: keep the reference
-                continue
-            self._moved(name, causes, ref[0], position, moved, turned)
+            else:
+                self._moved(name, causes, ref[0], position, moved, turned)
+            if name not in restless:
+                self._in_motion.pop(name, None)  # at rest again: the next move is new
+        self._restless = restless
         for name in list(self._reference):
             if name not in world.objects:
                 del self._reference[name]
@@ -374,16 +401,34 @@ class KnockWatcher(cpl.Instrument):
         turned: float,
     ) -> None:
         pressed = self._pressed.pop(name, None)
+        if pressed is None and name in self._restless:
+            # it was moving already when the interval began: still falling, sliding or
+            # rolling from what set it moving, no new knock
+            what = self._in_motion.setdefault(name, "drift")
+            if what == "drift":
+                self._report.drifted.append(name)
+            elif what == "own":
+                self._report.own.append(name)
+            log.info(
+                "%s moved %.3f m, turned %.2f rad, moving since before (%s)",
+                name,
+                moved,
+                turned,
+                what if isinstance(what, str) else f"knocked by {what.motion.describe()}",
+            )
+            return
         if pressed is not None:  # left pressed by a motion that ended before
             causes = [pressed, *(c for c in causes if c is not pressed)]
         if any(name in c.own for c in causes):
             self._report.own.append(name)  # its own pick-up or placing
+            self._in_motion[name] = "own"
             log.debug("%s moved %.3f m by its own pick-up or placing", name, moved)
             return
         rank = {kind: i for i, kind in enumerate(PUSH_ORDER)}
         pushing = sorted((c for c in causes if c.pushes), key=lambda c: rank.get(c.kind, len(rank)))
         if not pushing:
             self._report.drifted.append(name)
+            self._in_motion[name] = "drift"
             log.info(
                 "%s moved %.3f m, turned %.2f rad while no motion pushed (%s): drifted",
                 name,
@@ -409,6 +454,7 @@ class KnockWatcher(cpl.Instrument):
             tuple(pushing[1:]),
         )
         self._report.knocks.append(knock)
+        self._in_motion[name] = knock
         log.warning(
             "%s knocked by %s: moved %.3f m, turned %.2f rad%s",
             name,
@@ -417,6 +463,24 @@ class KnockWatcher(cpl.Instrument):
             turned,
             "".join(f"; also running: {m.describe()}" for m in knock.others),
         )
+
+    def _moving_now(self) -> set[str]:
+        """The free objects of the true world not at rest (:data:`AT_REST`): a read of
+        their velocities."""
+        import pybullet as pb
+
+        world = self.true_world
+        c = world.client
+        lin_eps, ang_eps = AT_REST
+        out = set()
+        attached = world.attachments
+        for name in world.objects:
+            if name in attached:
+                continue
+            lin, ang = pb.getBaseVelocity(world.body_of(name), physicsClientId=c)
+            if math.hypot(*lin) > lin_eps or math.hypot(*ang) > ang_eps:
+                out.add(name)
+        return out
 
     def _touching(self) -> set[str]:
         """The free objects the true robot, or an object it holds, touches now (a

@@ -306,6 +306,50 @@ def test_an_object_left_pressed_by_a_motion_is_knocked_by_that_motion(
     assert [(m.kind, m.arms) for m in knock.others] == [("closing-gripper", ("left",))]
 
 
+class _Throw(cpl.Instrument):
+    """When the first real ``closing-gripper`` starts, throws the box up at 6 m/s in the
+    true world (after the watcher's checkpoint): it flies and falls for about 1.2 s."""
+
+    def __init__(self, true: Any) -> None:
+        self.true, self.done = true, False
+
+    def task_status_changed(self, task: Any, old: Any, new: Any) -> None:
+        import pybullet as pb
+
+        motion = (task.annotations or {}).get("motion")
+        if self.done or new is not cpl.Status.RUNNING or motion is None:
+            return
+        if motion.type != "closing-gripper":
+            return
+        self.done = True
+        body = self.true.body_of(NEIGHBOUR)
+        pb.resetBaseVelocity(
+            body, (0.0, 0.0, 6.0), (0.0, 0.0, 0.0), physicsClientId=self.true.client
+        )
+
+
+def test_an_object_still_moving_from_a_knock_is_not_knocked_again(mrun: Any, worlds: Any) -> None:
+    """A box set flying during a short gripper motion (injected) is still in the air
+    when the next motions start: it is knocked once, by the gripper motion; its fall
+    during the next motions continues that knock."""
+    true, belief = worlds
+    true.spawn_object(NEIGHBOUR, "breakfast-cereal", ASIDE)
+    settle(true, 100)
+
+    async def body() -> None:
+        await perform(a.motion(type="closing-gripper", gripper="left"))
+        for _ in range(4):
+            await perform(a.motion(type="opening-gripper", gripper="right"))
+            await perform(a.motion(type="closing-gripper", gripper="right"))
+
+    injector = _Throw(true)
+    report = _run(mrun, true, belief, body, injector).report()
+    assert injector.done
+    assert report.knocked == [NEIGHBOUR]
+    (knock,) = report.knocks
+    assert (knock.motion.kind, knock.motion.arms) == ("closing-gripper", ("left",))
+
+
 # ------------------------------------------------------------------- the campaign
 def _record(seed: int, proj: bool, knocks: list[tuple[str, str, list[str], str]]) -> Any:
     """A run record as the demo writes it, with ``knocks``: (object, motion, arms,
