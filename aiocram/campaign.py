@@ -10,10 +10,11 @@ outgrows one machine adds workers, not code.
 Every figure is measured on the true world (:mod:`aiocram.truth`): per fault rate, the
 objects *delivered* (upright on the island near where the plan placed them), what the
 plans *claimed*, the *phantoms* (claimed, not delivered), where the others ended up,
-retries by kind, base distance, time, and the invariants that must hold in every run
-(:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why. With
-``--robots pr2,panda`` every cell is run by each robot, and every figure is per robot
-(a ``robot`` field in each row of the summary, a column of the table).
+retries by kind, base distance, time, the objects *knocked* (moved by a robot motion that
+was not their own pick-up or placing, :mod:`aiocram.knocks`), and the invariants that must
+hold in every run (:data:`aiocram.truth.INVARIANTS`), each violation with its seed and why.
+With ``--robots pr2,panda`` every cell is run by each robot, and every figure is per robot
+(a ``robot`` field in each row of the summary, a table per robot).
 
 The harness keeps every finished run: each run's record is appended to ``OUT/runs.jsonl``
 as it ends; a local worker that dies (killed, crashed) is recorded as an ``error`` run of
@@ -610,10 +611,10 @@ def run_campaign(
 def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
     """Aggregate per (robot, projection mode, fault rate): objects delivered (measured on
     the true world), claimed by the plan, phantoms (claimed, not delivered), objects
-    toppled or on the floor, retries by kind, distance, time, and invariant violations
-    (each listed with its seed and why). ``success_rate`` is the delivered rate. A record
-    without ``robot`` (written before robots were a choice) was run by the PR2-like
-    robot, the only one there was."""
+    toppled or on the floor, retries by kind, distance, time, the knocked objects
+    (:func:`knock_summary`) and invariant violations (each listed with its seed and why).
+    ``success_rate`` is the delivered rate. A record without ``robot`` (written before
+    robots were a choice) was run by the PR2-like robot, the only one there was."""
     groups: dict[tuple[str, bool, float], list[dict[str, Any]]] = defaultdict(list)
     for r in results:
         robot = str(r.get("robot", DEFAULT_ROBOT))
@@ -680,10 +681,41 @@ def summarise(results: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 "mean_wall_time_s": statistics.fmean(r.get("wall_time_s", 0.0) for r in runs),
                 "runs_violating": len({v["seed"] for v in violations}),
                 "fidelity": fidelity_summary(runs),  # issue 14: projection fidelity
+                **knock_summary(runs),  # issue 26: objects knocked by robot motions
                 "invariant_violations": violations,
             }
         )
     return {"rows": rows}
+
+
+def knock_summary(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The knocks of ``runs`` (records of :func:`aiocram.demo.run_demo_once`, measured by
+    :class:`aiocram.knocks.KnockWatcher` on the true world): ``knocked`` objects (each
+    object once per run), ``knocks`` (every move of an object by a motion not its own
+    pick-up or placing), ``runs_knocking``, ``knocked_by`` (knocks by motion type, with
+    the arm: ``moving-tcp right``), ``knocked_in`` (knocks by the action the motion was
+    part of) and ``drifted`` (objects that moved while no motion pushed). Crashed runs
+    and records from before knocks were measured count zero."""
+    by: dict[str, int] = defaultdict(int)
+    within: dict[str, int] = defaultdict(int)
+    knocked = knocks = knocking = drifted = 0
+    for r in runs:
+        names = r.get("knocked") or []
+        knocked += len(names)
+        knocking += bool(names)
+        drifted += len(r.get("drifted") or [])
+        for k in r.get("knocks") or []:
+            knocks += 1
+            by[" ".join([str(k.get("motion")), *k.get("arms", [])])] += 1
+            within[str(k.get("action"))] += 1
+    return {
+        "knocked": knocked,
+        "knocks": knocks,
+        "runs_knocking": knocking,
+        "knocked_by": dict(sorted(by.items())),
+        "knocked_in": dict(sorted(within.items())),
+        "drifted": drifted,
+    }
 
 
 #: What a crashed run's object counts as in the summary.
@@ -795,7 +827,8 @@ def summary_table(summary: dict[str, Any]) -> Any:
     are in ``campaign.json``), titled with its robot; with several robots, one such
     table per robot (a ``rich.console.Group``). ``crash``: runs the harness lost (their
     objects count as not delivered); ``bad runs``: runs that violated an invariant or
-    crashed."""
+    crashed. ``knock``: objects knocked (:func:`knock_summary`; which motions knocked
+    them is printed below the table)."""
     robots = _robots(summary)
     if len(robots) <= 1:
         return _robot_table(summary["rows"], robots[0] if robots else None)
@@ -829,10 +862,11 @@ def _robot_table(rows: list[dict[str, Any]], robot: str | None) -> Any:
         ("delivered", "right"),
         ("claimed", "right"),
         ("phantoms", "right"),
-        ("dist m", "right"),
-        ("sim s", "right"),
+        ("knock", "right"),
+        ("dist\nm", "right"),
+        ("sim\ns", "right"),
         ("crash", "right"),
-        ("bad runs", "right"),
+        ("bad\nruns", "right"),
     ):
         table.add_column(col, justify=justify, no_wrap=True)  # type: ignore[arg-type]
     for r in rows:
@@ -843,6 +877,7 @@ def _robot_table(rows: list[dict[str, Any]], robot: str | None) -> Any:
             f"{100 * r.get('delivered_rate', r['success_rate']):.1f} %",
             f"{100 * r.get('claimed_rate', 0.0):.1f} %",
             str(r.get("phantoms", 0)),
+            str(r.get("knocked", 0)),
             f"{r['mean_distance_m']:.2f}",
             f"{r['mean_sim_time_s']:.0f}",
             str(r.get("runs_crashed", 0)),
@@ -873,6 +908,21 @@ def _print_summary(summary: dict[str, Any]) -> None:
                 + "violations by kind: "
                 + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
             )
+        for line in knock_lines(rows):
+            console.print(line if robot is None else f"{robot}: {line}", highlight=False)
+
+
+def knock_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per cell that knocked something: which motions knocked how many objects."""
+    out = []
+    for r in rows:
+        by = r.get("knocked_by") or {}
+        if not by:
+            continue
+        cell = f"{'with' if r['projection'] else 'without'} projection, faults {r['fault_rate']:g}"
+        motions = ", ".join(f"{k} {n}" for k, n in sorted(by.items(), key=lambda kv: -kv[1]))
+        out.append(f"knocked ({cell}): {motions}")
+    return out
 
 
 def _rates(text: str) -> list[float]:

@@ -20,7 +20,8 @@ STALE = (*OUTPUT_FILES, "costmap-*.png", "floor_plan.png")
 
 def route_plan_logs(path: Path | None) -> Callable[[], None]:
     """Plans log every retry (``plans.retries``: each one a ``CountedRetries`` grants or
-    refuses, INFO) and every failure a retry scope handles (WARNING); during the demo
+    refuses, INFO) and every failure a retry scope handles (WARNING), and the truth's
+    knock watcher every knocked object (``aiocram.knocks``, WARNING); during the demo
     these go to ``path`` (``OUT/plans.log``; nowhere without ``--out``) at INFO, so that
     the console shows the live view and the summary. Returns the function that undoes
     this."""
@@ -32,7 +33,10 @@ def route_plan_logs(path: Path | None) -> Callable[[], None]:
         handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     else:
         handler = logging.NullHandler()
-    loggers = [logging.getLogger(name) for name in ("plans", "executive", "projection", "cpl")]
+    loggers = [
+        logging.getLogger(name)
+        for name in ("plans", "executive", "projection", "cpl", "aiocram.knocks")
+    ]
     saved = [(lg, lg.propagate, lg.level) for lg in loggers]
     for lg in loggers:
         lg.propagate = False

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aiocram.knocks import KnockReport
 from aiocram.truth import TruthReport
 
 from ._config import DemoConfig, robot_description
@@ -50,6 +51,9 @@ class DemoReport:
     store_s: float = 0.0
     #: Metres the base drove while each object was transported (by type).
     distances: dict[str, float] = field(default_factory=dict)
+    #: The objects real robot motions knocked, measured on the true world
+    #: (:class:`aiocram.knocks.KnockWatcher`; ``None``: not watched).
+    knocks: KnockReport | None = None
 
     @property
     def robot(self) -> str:
@@ -92,6 +96,8 @@ class DemoReport:
             "cleanup_intervened": (
                 [] if self.truth is None else list(self.truth.cleanup_intervened)
             ),
+            # issue 26: "knocked" lists each knocked object once, "knocks" every knock
+            **(KnockReport() if self.knocks is None else self.knocks).to_json(),
         }
 
 

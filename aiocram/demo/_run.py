@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import cpl
 from aiocram.foresight import foresight_records
+from aiocram.knocks import KnockWatcher
 from aiocram.truth import TruthObserver
 
 from ._config import (
@@ -224,6 +225,7 @@ def run_demo(
     transports: _Transports | None = None  # made with the observer, before the run
     engine_box: list[Any] = []
     observer: TruthObserver | None = None  # made with the worlds, before the run
+    knocks: KnockWatcher | None = None  # made with the worlds, before the run (issue 26)
 
     async def main() -> None:
         from executive import current_environment
@@ -239,7 +241,7 @@ def run_demo(
         rules = location_rules(belief_world)
         if outputs is not None:  # note every candidate pose, for the costmap pictures
             rules = costmaps.recording(rules)
-        assert observer is not None and transports is not None
+        assert observer is not None and transports is not None and knocks is not None
         async with with_real_robot(
             true_world,
             belief_world,
@@ -249,6 +251,7 @@ def run_demo(
             preferences=preferences,
         ) as env:
             observer.subscribe(env)
+            knocks.subscribe(env)
             transports.subscribe(env)
             engine_box.append(costmaps_of(current_environment().rules))
             run = plan(true_world, config)
@@ -266,6 +269,8 @@ def run_demo(
             config.seed, objects={}, gui=config.gui, robot=robot
         )
         observer = TruthObserver(true_world, belief_world, lambda: watch.tasks)
+        knocks = KnockWatcher(true_world)
+        instruments.append(knocks)
         transports = _Transports(observer.before_cleanup)
         outcomes = transports.outcomes
         camera = CameraRecorder(true_world)
@@ -290,6 +295,7 @@ def run_demo(
         root = root_box[0]
         interrupted = interrupts is not None and interrupts.interrupted
         sim = (root.end_time or 0.0) - (root.start_time or 0.0)
+        knocked = knocks.report()  # before the truth's settle, which is no robot motion
         truth = observer.measure(
             {o.name: o.success for o in outcomes.values()}, interrupted=interrupted
         )
@@ -313,6 +319,7 @@ def run_demo(
             truth=truth,
             foresight=foresight_records(root),
             distances=dict(transports.distances),
+            knocks=knocked,
         )
     finally:
         restore_logging()

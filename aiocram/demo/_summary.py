@@ -142,6 +142,18 @@ def print_report(report: DemoReport, console: Any) -> None:
         f"{report.delivered}/{n} objects delivered (true world; the plan claimed {report.claimed})"
     )
     console.print(f"simulated {report.sim_time_s:.1f} s in {report.wall_time_s:.1f} s wall time")
+    if report.knocks is not None and report.knocks.knocks:
+        from rich.text import Text
+
+        knocked = report.knocks.knocked
+        console.print(
+            f"{len(knocked)} object{'s' if len(knocked) > 1 else ''} knocked by the robot "
+            "(true world; each knock is in plans.log):"
+        )
+        for name in knocked:  # one line each: how often, and the first knock's motion
+            knocks = [k for k in report.knocks.knocks if k.object == name]
+            times = f"{len(knocks)} times, first" if len(knocks) > 1 else "once,"
+            console.print(Text(f"  {name}: {times} by {knocks[0].motion.describe()}"))
     if report.truth is not None and report.truth.cleanup_intervened:
         console.print("final cleanup intervened: " + "; ".join(report.truth.cleanup_intervened))
     if report.cleanup_failures:
