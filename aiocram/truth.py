@@ -46,7 +46,7 @@ from typing import Any
 
 import cpl
 from cpl.lowlevel import stray_asyncio_tasks
-from executive import kitchen
+from kitchens import iai
 
 __all__ = [
     "INVARIANTS",
@@ -67,17 +67,18 @@ NEAR_TARGET = 0.12
 #: Settle steps (1/240 s) the true world gets after the run before it is measured.
 SETTLE_STEPS = 240
 #: Objects whose centre is below this height (m) lie on the floor (the kitchen's).
-FLOOR_HEIGHT = kitchen.FLOOR_HEIGHT
+FLOOR_HEIGHT = iai.DESCRIPTION.floor_height
 #: Joint-space tolerance (rad) for "the arms are at a configuration".
 ARM_TOLERANCE = 0.05
 #: Configurations the arms may rest in at the end of the plan (``carry`` is where the
 #: plans keep them between actions, ``park`` at the sides).
 REST_CONFIGURATIONS = ("carry", "park")
 
-DRAWER_JOINT = kitchen.DRAWER_JOINT
-DRAWER_LINK = kitchen.DRAWER_LINK
-ISLAND = kitchen.ISLAND_SURFACE
-SINK = kitchen.SINK_SURFACE
+#: The kitchen's parts the truth measures (the projection's kitchen, kitchens.iai).
+DRAWER_JOINT = iai.DESCRIPTION.container.joint
+DRAWER_LINK = iai.DESCRIPTION.container.link
+ISLAND = iai.DESCRIPTION.table_surface
+SINK = iai.DESCRIPTION.start_surface
 
 INVARIANTS = (
     "no_task_leaked",

@@ -33,7 +33,6 @@ from executive import (
     an,
     current_environment,
     emit,
-    kitchen,
     knowledge,
     perform,
     register_resources,
@@ -45,9 +44,11 @@ from ._common import arm_description, arm_names, base_frame, hand_of, perform_ig
 
 __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
 
-#: How far accessing/sealing move a drawer (CRAM's demo: 0.3 m; the scene places the
-#: spoon by the same number).
-DEFAULT_DISTANCE = kitchen.DRAWER_OPENING
+#: How far accessing/sealing move a drawer (CRAM's accessing distance, 0.3 m). The
+#: kitchen's description says how far its demo opens its container
+#: (:attr:`executive.ContainerDescription.opening`, by which the scene places the spoon);
+#: tests/plans/test_kitchen_description.py checks the projection's kitchen agrees.
+DEFAULT_DISTANCE = 0.3
 _PREGRASP = 0.10
 #: The standard gripper's rotation on the handle (approaching along the handle's +x); the
 #: arm's tool frame is this combined with its ``standard_to_tool``.
