@@ -188,7 +188,7 @@ class Environment:
         container, floor height and demo scene here and never spell its link names. No
         world model: :class:`executive.NoWorldModel`; a world model without a description:
         :class:`executive.NoKitchenDescription`."""
-        kitchen: KitchenDescription | None = getattr(self.world, "kitchen", None)
+        kitchen = self.world.kitchen
         if kitchen is None:
             raise NoKitchenDescription(
                 f"environment {self.name!r}: its world model {type(self.world).__name__} "

@@ -47,7 +47,7 @@ __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container
 #: How far accessing/sealing move a drawer (CRAM's accessing distance, 0.3 m). The
 #: kitchen's description says how far its demo opens its container
 #: (:attr:`executive.ContainerDescription.opening`, by which the scene places the spoon);
-#: tests/plans/test_kitchen_description.py checks the projection's kitchen agrees.
+#: tests/plans/test_plans_read_the_kitchen.py checks the projection's kitchen agrees.
 DEFAULT_DISTANCE = 0.3
 _PREGRASP = 0.10
 #: The standard gripper's rotation on the handle (approaching along the handle's +x); the
