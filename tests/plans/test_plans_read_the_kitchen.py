@@ -117,3 +117,13 @@ def test_the_plans_accessing_distance_is_the_projection_kitchens_opening() -> No
     """The scene places the spoon where it is reachable once the drawer is open by the
     kitchen's ``container.opening``; the transports open it by ``DEFAULT_DISTANCE``."""
     assert DEFAULT_DISTANCE == KITCHEN.container.opening
+
+
+def test_the_drawers_handle_is_the_kitchens() -> None:
+    from plans.environment import handle_link
+
+    described = an.object(type="drawer", urdf_name="galley_box", part_of="galley")
+    other = an.object(type="drawer", urdf_name="galley_shelf_main", part_of="galley")
+    assert _in(RENAMED, lambda: handle_link(described)) == "galley_box_knob"
+    # a container the kitchen does not describe: CRAM's naming
+    assert _in(RENAMED, lambda: handle_link(other)) == "galley_shelf_handle"
