@@ -46,7 +46,6 @@ from typing import Any
 
 import cpl
 from cpl.lowlevel import stray_asyncio_tasks
-from executive import kitchen
 
 __all__ = [
     "INVARIANTS",
@@ -66,18 +65,12 @@ UPRIGHT_DEG = 15.0
 NEAR_TARGET = 0.12
 #: Settle steps (1/240 s) the true world gets after the run before it is measured.
 SETTLE_STEPS = 240
-#: Objects whose centre is below this height (m) lie on the floor (the kitchen's).
-FLOOR_HEIGHT = kitchen.FLOOR_HEIGHT
 #: Joint-space tolerance (rad) for "the arms are at a configuration".
 ARM_TOLERANCE = 0.05
 #: Configurations the arms may rest in at the end of the plan (``carry`` is where the
 #: plans keep them between actions, ``park`` at the sides).
 REST_CONFIGURATIONS = ("carry", "park")
 
-DRAWER_JOINT = kitchen.DRAWER_JOINT
-DRAWER_LINK = kitchen.DRAWER_LINK
-ISLAND = kitchen.ISLAND_SURFACE
-SINK = kitchen.SINK_SURFACE
 
 INVARIANTS = (
     "no_task_leaked",
@@ -162,7 +155,7 @@ def _on_surface(world: Any, position: Any, link: str) -> bool:
 
 
 def _in_drawer(world: Any, position: Any) -> bool:
-    (x0, y0, z0), (x1, y1, z1) = world.link_aabb(DRAWER_LINK)
+    (x0, y0, z0), (x1, y1, z1) = world.link_aabb(world.kitchen.container.link)
     x, y, z = position
     return bool(x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1 + 0.05)
 
@@ -184,13 +177,13 @@ def where_is(world: Any, name: str) -> str:
     if name in _robot_holds(world):
         return "hand"
     position = world.object_pose(name).position
-    if _on_surface(world, position, ISLAND):
+    if _on_surface(world, position, world.kitchen.table_surface):
         return "island"
     if _in_drawer(world, position):
         return "drawer"
-    if _on_surface(world, position, SINK):
+    if _on_surface(world, position, world.kitchen.start_surface):
         return "sink"
-    if position[2] < FLOOR_HEIGHT:
+    if position[2] < world.kitchen.floor_height:
         return "floor"
     return "elsewhere"
 
@@ -373,7 +366,7 @@ class TruthObserver:
             if o.where in ("floor", "elsewhere", "gone") or o.toppled
         ]
         check("no_object_lost", not lost, "; ".join(lost))
-        drawer = world.joint_position(DRAWER_JOINT)
+        drawer = world.joint_position(world.kitchen.container.joint)
         check("drawer_closed", abs(drawer) < 0.01, f"drawer open {drawer:.3f} m")
         arms = _arm_links(world.robot)
         holding = {name: _holding_arm(link, arms) for name, link in _robot_holds(world).items()}
@@ -412,7 +405,7 @@ class TruthObserver:
             and tilt <= UPRIGHT_DEG
             and distance is not None
             and distance <= NEAR_TARGET
-            and _on_surface(world, target, ISLAND)
+            and _on_surface(world, target, world.kitchen.table_surface)
         )
         return ObjectTruth(
             name,

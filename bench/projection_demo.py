@@ -19,6 +19,7 @@ import cpl
 import plans
 import projection
 from cpl.testing import MockClock
+from kitchens.iai import DESCRIPTION as KITCHEN
 
 
 def run_demo(seed: int, objects: tuple[str, ...]) -> tuple[float, int]:
@@ -59,7 +60,7 @@ def main() -> None:
     logging.getLogger("executive.retry").setLevel(logging.ERROR)
     base = statistics.median(raw_scene_load() for _ in range(5))
     print(f"baseline: raw PyBullet scene load (connect + 2 URDFs), median {base:.3f} s")
-    for label, objects in (("bowl transport", ("bowl",)), ("full demo", plans.demo.OBJECTS)):
+    for label, objects in (("bowl transport", ("bowl",)), ("full demo", KITCHEN.demo_objects)):
         runs = [run_demo(seed, objects) for seed in range(1, args.seeds + 1)]
         times = [t for t, _ in runs]
         print(
@@ -70,7 +71,7 @@ def main() -> None:
         )
     if args.profile:
         profiler = cProfile.Profile()
-        profiler.runcall(run_demo, 1, plans.demo.OBJECTS)
+        profiler.runcall(run_demo, 1, KITCHEN.demo_objects)
         pstats.Stats(profiler).sort_stats("cumulative").print_stats(25)
 
 

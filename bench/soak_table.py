@@ -32,6 +32,7 @@ import cpl
 import plans
 import projection
 from cpl.testing import MockClock
+from kitchens.iai import DESCRIPTION as KITCHEN
 
 
 def soak(hours: float, retention: str) -> None:
@@ -66,8 +67,10 @@ def soak(hours: float, retention: str) -> None:
                 n += 1
                 world.restore(empty)
                 t0 = time.perf_counter()
-                projection.set_up_scene(world, plans.demo.OBJECTS, seed=n, settle_steps=0)
-                outcomes = await plans.table_setting(plans.demo.OBJECTS, projection_reasoning=True)
+                projection.set_up_scene(world, KITCHEN.demo_objects, seed=n, settle_steps=0)
+                outcomes = await plans.table_setting(
+                    KITCHEN.demo_objects, projection_reasoning=True
+                )
                 rounds.append(time.perf_counter() - t0)
                 if n == 1:
                     gc.collect()

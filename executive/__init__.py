@@ -27,6 +27,7 @@ from ._environment import (
     environment,
     with_process_modules,
 )
+from ._kitchen import ContainerDescription, KitchenDescription, KitchenDescriptionError
 from ._location import Validation
 from ._perform import perform
 from ._pose import Pose, Transform, yaw_quaternion
@@ -94,8 +95,11 @@ __all__ = [
     "REQUIRED_ARM_STATES",
     "ArmDescription",
     "CameraDescription",
+    "ContainerDescription",
     "GripperDescription",
     "JointInfo",
+    "KitchenDescription",
+    "KitchenDescriptionError",
     "KinematicTree",
     "NeckDescription",
     "Reach",

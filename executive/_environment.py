@@ -22,9 +22,10 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 from ._resources import Resource, ResourceLedger
 from ._rules import RuleSet, static_rules
 from ._world import ProjectionWorld
-from .failures import NoRobotDescription, NoWorldModel
+from .failures import NoKitchenDescription, NoRobotDescription, NoWorldModel
 
 if TYPE_CHECKING:
+    from ._kitchen import KitchenDescription
     from ._process_module import ProcessModule
     from ._robot import RobotDescription
     from .events import Event
@@ -179,6 +180,22 @@ class Environment:
                 "RobotDescription, e.g. from the top-level robots package>"
             )
         return robot
+
+    @property
+    def kitchen(self) -> KitchenDescription:
+        """The description of the kitchen this environment's robot works in: its world
+        model's (:attr:`executive.WorldQueries.kitchen`). Plans read the kitchen's surfaces,
+        container, floor height and demo scene here and never spell its link names. No
+        world model: :class:`executive.NoWorldModel`; a world model without a description:
+        :class:`executive.NoKitchenDescription`."""
+        kitchen = self.world.kitchen
+        if kitchen is None:
+            raise NoKitchenDescription(
+                f"environment {self.name!r}: its world model {type(self.world).__name__} "
+                "carries no kitchen description; build it with kitchen=<a "
+                "KitchenDescription, e.g. from the top-level kitchens package>"
+            )
+        return kitchen
 
     # -- derivation -------------------------------------------------------------------
     def derive(

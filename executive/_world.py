@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 from ._pose import Pose
 
 if TYPE_CHECKING:
+    from ._kitchen import KitchenDescription
     from ._robot import RobotDescription
     from .events import Event
 
@@ -113,6 +114,15 @@ class WorldQueries(WorldModel, Protocol):
         states: :class:`executive.RobotDescription`); None for a world with no robot body
         (plans then reach it through :attr:`executive.Environment.robot`, which raises
         :class:`executive.NoRobotDescription`)."""
+        ...
+
+    @property
+    def kitchen(self) -> KitchenDescription | None:
+        """The description of the kitchen this world model holds (the surfaces, container
+        and floor height the plans use by role, and the demo scene:
+        :class:`executive.KitchenDescription`); None for a world with no kitchen (plans
+        then reach it through :attr:`executive.Environment.kitchen`, which raises
+        :class:`executive.NoKitchenDescription`)."""
         ...
 
 

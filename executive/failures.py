@@ -46,6 +46,7 @@ __all__ = [
     "NavigationHighLevelFailure",
     "NavigationLowLevelFailure",
     "NavigationPoseUnreachable",
+    "NoKitchenDescription",
     "NoProcessModule",
     "NoRobotDescription",
     "NoWorldModel",
@@ -401,6 +402,14 @@ class NoRobotDescription(LookupError):
     named states. A programming error, not a plan failure."""
 
     cram_name = "no-robot-description"
+
+
+class NoKitchenDescription(LookupError):
+    """The current environment's world model carries no kitchen description (an in-memory
+    test world built without ``kitchen=``), and a plan asked for the kitchen's surfaces,
+    container, floor height or demo scene. A programming error, not a plan failure."""
+
+    cram_name = "no-kitchen-description"
 
 
 def cram_name_of(failure: BaseException | type[BaseException]) -> str:

@@ -19,6 +19,7 @@ from typing import Any
 import cpl
 
 from ._designator import Designator
+from ._kitchen import KitchenDescription
 from ._pose import Pose, Transform
 from ._process_module import ProcessModule
 from ._resources import Resource
@@ -101,10 +102,15 @@ class InMemoryWorld:
         unreachable_waypoints: Collection[Pose] = (),
         unstable_poses: Collection[Pose] = (),
         robot: RobotDescription | None = None,
+        kitchen: KitchenDescription | None = None,
     ) -> None:
         #: The robot's description (:attr:`executive.WorldQueries.robot`); None: plans that
         #: need the robot's arms or frames raise :class:`executive.NoRobotDescription`.
         self.robot = robot
+        #: The kitchen's description (:attr:`executive.WorldQueries.kitchen`); None: plans
+        #: that need the kitchen's surfaces or floor raise
+        #: :class:`executive.NoKitchenDescription`.
+        self.kitchen = kitchen
         self.objects: dict[str, WorldObject] = {}
         for name, pose in (objects or {}).items():
             self.add_object(name, pose, type=(types or {}).get(name))

@@ -39,7 +39,6 @@ from executive import (
     a,
     an,
     current_environment,
-    kitchen,
     perform,
     register_resources,
     retry_scope,
@@ -74,7 +73,6 @@ __all__ = [
     "SINK_BASE_POSE",
     "SINK_DROP_CLEARANCE",
     "SINK_DROP_POSITION",
-    "SINK_SURFACE",
     "deliver",
     "drop_at_sink",
 ]
@@ -299,8 +297,8 @@ def _delivering(d: Designator) -> Iterator[Any]:
 #: robot's base frame.
 SINK_BASE_POSE = Pose((0.7, -0.2, 0.0))
 SINK_DROP_POSITION = (0.7, 0.0, 1.2)
-#: The counter the object is put down on at the sink, and the gap (m) left below it.
-SINK_SURFACE = kitchen.SINK_SURFACE
+#: The gap (m) left below the object put down on the sink counter (the kitchen's start
+#: surface, :attr:`executive.KitchenDescription.start_surface`).
 SINK_DROP_CLEARANCE = 0.01
 
 
@@ -318,8 +316,9 @@ def _sink_drop_pose(object_designator: ObjectDesignator) -> Pose:
     name = object_designator.current().get("name")
     if not isinstance(name, str):
         return cram_pose
+    sink = current_environment().kitchen.start_surface
     try:
-        top = world.link_aabb(SINK_SURFACE)[1][2]
+        top = world.link_aabb(sink)[1][2]
         lo, hi = world.object_aabb(name)
     except LookupError:
         return cram_pose

@@ -29,6 +29,7 @@ import cpl
 from executive import (
     DesignatorError,
     HighLevelFailure,
+    KitchenDescription,
     LocationDesignator,
     ObjectDesignator,
     ObjectNowhereToBeFound,
@@ -38,7 +39,6 @@ from executive import (
     a,
     an,
     current_environment,
-    kitchen,
     perform,
 )
 from executive.events import Event, emit
@@ -56,25 +56,58 @@ from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
 
 __all__ = [
-    "OBJECTS",
     "ObjectOutcome",
     "TransportEnded",
     "TransportStarted",
     "TransportsOver",
+    "container",
+    "demo_objects",
     "fetch_location",
     "place_location",
+    "start_surface",
     "table_setting",
+    "table_surface",
 ]
 
 log = logging.getLogger(__name__)
 
-SINK = an.object(type="counter-top", urdf_name=kitchen.SINK_SURFACE, part_of="kitchen")
-ISLAND = an.object(type="counter-top", urdf_name=kitchen.ISLAND_SURFACE, part_of="kitchen")
-DRAWER = an.object(type="drawer", urdf_name=kitchen.DRAWER_LINK, part_of="kitchen")
-DRAWER_LINK = kitchen.DRAWER_LINK
 
-#: The demo's objects, in CRAM's order (see :data:`executive.kitchen.DEMO_OBJECTS`).
-OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
+def _kitchen(kitchen: KitchenDescription | None) -> KitchenDescription:
+    """``kitchen``, or the current environment's (:attr:`executive.Environment.kitchen`)."""
+    if kitchen is None:
+        return current_environment().kitchen
+    if not isinstance(kitchen, KitchenDescription):
+        raise TypeError(f"kitchen must be an executive.KitchenDescription, got {kitchen!r}")
+    return kitchen
+
+
+def start_surface(kitchen: KitchenDescription | None = None) -> ObjectDesignator:
+    """The counter top where the demo's objects start (CRAM's sink counter), of ``kitchen``
+    (default: the current environment's)."""
+    k = _kitchen(kitchen)
+    return an.object(type="counter-top", urdf_name=k.start_surface, part_of=k.name)
+
+
+def table_surface(kitchen: KitchenDescription | None = None) -> ObjectDesignator:
+    """The counter top where the table is set (CRAM's kitchen island), of ``kitchen``
+    (default: the current environment's)."""
+    k = _kitchen(kitchen)
+    return an.object(type="counter-top", urdf_name=k.table_surface, part_of=k.name)
+
+
+def container(kitchen: KitchenDescription | None = None) -> ObjectDesignator:
+    """The container the demo opens (CRAM's drawer), of ``kitchen`` (default: the current
+    environment's)."""
+    k = _kitchen(kitchen)
+    return an.object(type="drawer", urdf_name=k.container.link, part_of=k.name)
+
+
+def demo_objects(kitchen: KitchenDescription | None = None) -> tuple[str, ...]:
+    """The demo's objects in CRAM's order (:attr:`executive.KitchenDescription.demo_objects`)
+    of ``kitchen`` (default: the current environment's)."""
+    return _kitchen(kitchen).demo_objects
+
+
 #: CRAM's fixed placing pose of the cereal, map (-0.78, 0.8, 0.95), quaternion
 #: (0, 0, 0.6, 0.4) (normalised: yaw ~112.6 deg), adapted to our frames (deliberate
 #: deviation): z = island top 0.85 + half the box height 0.29 = 0.995, because our object
@@ -134,16 +167,21 @@ class TransportsOver(Event):
     cram_name = "demo-transports-over"
 
 
-def fetch_location(object_type: str) -> LocationDesignator:
-    """Where CRAM's demo looks for the object (reference section 3.4)."""
+def fetch_location(
+    object_type: str, kitchen: KitchenDescription | None = None
+) -> LocationDesignator:
+    """Where CRAM's demo looks for the object (reference section 3.4), in ``kitchen``
+    (default: the current environment's): the container for the spoon, else the start
+    surface."""
     left, front = ("side", "left"), ("side", "front")
     if object_type == "spoon":
-        return a.location(front, in_=DRAWER)
+        return a.location(front, in_=container(kitchen))
+    sink = start_surface(kitchen)
     if object_type == "cup":
-        return a.location(left, on=SINK)
+        return a.location(left, on=sink)
     if object_type == "bowl":
-        return a.location(left, front, on=SINK, range_invert=0.5)
-    return a.location(left, front, on=SINK, range=0.5)  # breakfast-cereal, milk
+        return a.location(left, front, on=sink, range_invert=0.5)
+    return a.location(left, front, on=sink, range=0.5)  # breakfast-cereal, milk
 
 
 #: Table-setting slots offered to a cup, spoon or milk placed without the bowl (see
@@ -152,8 +190,11 @@ def fetch_location(object_type: str) -> LocationDesignator:
 FALLBACK_SLOTS = 5
 
 
-def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDesignator:
-    """Where CRAM's demo puts the object (reference section 3.4).
+def place_location(
+    object_type: str, *, bowl_placed: bool = True, kitchen: KitchenDescription | None = None
+) -> LocationDesignator:
+    """Where CRAM's demo puts the object (reference section 3.4), on the table surface of
+    ``kitchen`` (default: the current environment's).
 
     The cup, spoon and milk targets are relative to the delivered bowl (``bowl-1``). When
     the bowl was not delivered before them (``bowl_placed=False``: it is not in the
@@ -161,11 +202,14 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
     table-setting slot of their own on the island instead (deliberate addition: CRAM's
     demo always set the bowl first, and its relations had nothing to refer to otherwise,
     so ``--objects cup`` could never succeed)."""
+    if object_type not in ("bowl", "cup", "spoon", "milk"):  # the cereal: poses, no surface
+        return _cereal_location()
+    island = table_surface(kitchen)
     if object_type == "bowl":
         return a.location(
             ("side", "back"),
             ("side", "right"),
-            on=ISLAND,
+            on=island,
             context="table-setting",
             for_=an.object(type="bowl"),
             object_count=3,
@@ -174,7 +218,7 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
     if not bowl_placed and object_type in ("cup", "spoon", "milk"):
         return a.location(
             ("side", "back"),
-            on=ISLAND,
+            on=island,
             context="table-setting",
             for_=an.object(type=object_type),
             object_count=FALLBACK_SLOTS,
@@ -184,7 +228,7 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
         return a.location(
             ("side", "back"),
             ("side", "right"),
-            on=ISLAND,
+            on=island,
             context="table-setting",
             for_=an.object(type="bowl"),
             object_count=3,
@@ -194,9 +238,13 @@ def place_location(object_type: str, *, bowl_placed: bool = True) -> LocationDes
     # delivered one; if the bowl is still on the sink counter these designators have no
     # solution (object-undeliverable), rather than a spot beside it on the sink counter
     if object_type in ("cup", "spoon"):
-        return a.location(right_of=bowl, near=bowl, on=ISLAND, for_=an.object(type=object_type))
+        return a.location(right_of=bowl, near=bowl, on=island, for_=an.object(type=object_type))
     if object_type == "milk":
-        return a.location(left_of=bowl, far_from=bowl, on=ISLAND, for_=an.object(type="milk"))
+        return a.location(left_of=bowl, far_from=bowl, on=island, for_=an.object(type="milk"))
+    return _cereal_location()
+
+
+def _cereal_location() -> LocationDesignator:
     x, y, z = CEREAL_TARGET.position
     fallbacks = [Pose((x, y + dy, z), CEREAL_TARGET.orientation) for dy in CEREAL_FALLBACK_OFFSETS]
     return a.location(*(("pose", p) for p in (CEREAL_TARGET, *fallbacks)))
@@ -247,7 +295,8 @@ async def _finalize() -> None:
     Every step's failures are ignored, logged (``plans.demo``), and the steps go on; the
     caller bounds the whole by :data:`FINALIZE_TIMEOUT`."""
     held = _held()
-    await _ignoring_logged("close the drawer", lambda: seal_if_open(a.location(in_=DRAWER)))
+    drawer = a.location(in_=container())
+    await _ignoring_logged("close the drawer", lambda: seal_if_open(drawer))
     await _position_arms(held)
     await _ignoring_logged(
         "go to the origin",
@@ -328,7 +377,7 @@ async def _transport_later(
 
 
 async def table_setting(
-    objects: Sequence[str] = OBJECTS,
+    objects: Sequence[str] | None = None,
     *,
     projection_reasoning: bool = True,
     projection_runs: int = 3,
@@ -337,7 +386,8 @@ async def table_setting(
 ) -> dict[str, ObjectOutcome]:
     """Set the table (CRAM's ``demo-random``) in the current environment.
 
-    The objects are where the caller's scene set-up put them
+    ``objects``: the types to set, in order (default: the kitchen's demo objects,
+    :func:`demo_objects`). The objects are where the caller's scene set-up put them
     (``projection.set_up_scene(world, objects, seed=...)`` before the run): the plan only
     acts. ``objects`` not a sequence of type names (a string, or a world as in the
     signature before issue 24): TypeError, before the robot moves.
@@ -365,6 +415,8 @@ async def table_setting(
     ``viewpoint_reasoning`` (with ``projection_reasoning``): each search chooses where to
     look from by projection (:mod:`plans.viewpoints`; on by default with
     ``projection_reasoning``, see the issue-14 note for its measurement)."""
+    if objects is None:
+        objects = demo_objects()
     if isinstance(objects, str) or not (
         isinstance(objects, Sequence) and all(isinstance(t, str) for t in objects)
     ):

@@ -2,12 +2,14 @@
 
 ``opening``/``closing (object C) (arm A)? (distance d)?`` for a drawer designator ``C``
 (``urdf-name`` of its main link, e.g. ``sink_area_left_upper_drawer_main``): the gripper
-takes the handle link (the ``_main`` suffix replaced by ``_handle``; its pose from the
-world model's ``link_pose``) approaching along the handle frame's +x axis, and the drawer
-opens along the handle frame's -x axis. Waypoints, in ``base_footprint`` when the action
-is referenced (after navigating): pregrasp (0.10 m before the handle), grasp, the handle
-moved by the distance (pulled or pushed), and a retreat 0.10 m further. Both claim the
-arm and gripper they use for their duration (:func:`executive.register_resources`).
+takes the handle link (the kitchen's :attr:`executive.ContainerDescription.handle` for
+the container it describes, else CRAM's naming: the ``_main`` suffix replaced by
+``_handle``; its pose from the world model's ``link_pose``) approaching along the handle
+frame's +x axis, and the drawer opens along the handle frame's -x axis. Waypoints, in
+``base_footprint`` when the action is referenced (after navigating): pregrasp (0.10 m
+before the handle), grasp, the handle moved by the distance (pulled or pushed), and a
+retreat 0.10 m further. Both claim the arm and gripper they use for their duration
+(:func:`executive.register_resources`).
 """
 
 from __future__ import annotations
@@ -33,7 +35,6 @@ from executive import (
     an,
     current_environment,
     emit,
-    kitchen,
     knowledge,
     perform,
     register_resources,
@@ -45,9 +46,11 @@ from ._common import arm_description, arm_names, base_frame, hand_of, perform_ig
 
 __all__ = ["DEFAULT_DISTANCE", "close_container", "handle_link", "open_container"]
 
-#: How far accessing/sealing move a drawer (CRAM's demo: 0.3 m; the scene places the
-#: spoon by the same number).
-DEFAULT_DISTANCE = kitchen.DRAWER_OPENING
+#: How far accessing/sealing move a drawer (CRAM's accessing distance, 0.3 m). The
+#: kitchen's description says how far its demo opens its container
+#: (:attr:`executive.ContainerDescription.opening`, by which the scene places the spoon);
+#: tests/plans/test_plans_read_the_kitchen.py checks the projection's kitchen agrees.
+DEFAULT_DISTANCE = 0.3
 _PREGRASP = 0.10
 #: The standard gripper's rotation on the handle (approaching along the handle's +x); the
 #: arm's tool frame is this combined with its ``standard_to_tool``.
@@ -55,10 +58,15 @@ _HANDLE_STANDARD = np.array(knowledge.STANDARD_ROTATIONS["back"])
 
 
 def handle_link(container: Designator) -> str:
-    """The handle link of a drawer designator (``..._main`` -> ``..._handle``)."""
+    """The handle link of a drawer designator: the handle the environment's kitchen
+    description gives for it (:attr:`executive.KitchenDescription.container`), else CRAM's
+    naming (``..._main`` -> ``..._handle``) for a container it does not describe."""
     name = container.get("urdf-name")
     if not isinstance(name, str):
         raise DesignatorError(f"{container.short()} needs a urdf-name (its main link)", container)
+    kitchen = current_environment().world.kitchen
+    if kitchen is not None and name == kitchen.container.link:
+        return kitchen.container.handle
     return name.removesuffix("_main") + "_handle"
 
 

@@ -46,7 +46,6 @@ from executive import (
     a,
     an,
     current_environment,
-    kitchen,
     perform,
     register_resources,
     retry_scope,
@@ -70,11 +69,11 @@ __all__ = [
     "FETCH_REGRASPS",
     "FETCH_RELOCATIONS",
     "FETCH_RELOCATION_FAILURES",
-    "FLOOR_HEIGHT",
     "FLOOR_SEARCH_OFFSETS",
     "ObjectUnreachableOnFloor",
     "fetch",
     "floor_base_poses",
+    "floor_height",
     "search_floor",
 ]
 
@@ -89,9 +88,14 @@ FETCH_RELOCATIONS = 10
 #: The regrasp scope: pick attempts again from the same base pose.
 FETCH_REGRASPS = 1
 
-#: Below this height (m, map) an object lies on the floor (the kitchen's, one name for
-#: every layer: :data:`executive.kitchen.FLOOR_HEIGHT`).
-FLOOR_HEIGHT = kitchen.FLOOR_HEIGHT
+
+def floor_height() -> float:
+    """Below this height (m, map) an object lies on the floor: the current environment's
+    kitchen's (:attr:`executive.KitchenDescription.floor_height`, one number for every
+    layer)."""
+    return current_environment().kitchen.floor_height
+
+
 #: Where :func:`search_floor` looks, around the object's last believed position (m, map
 #: x/y offsets; the spots are on the floor): there first, then 0.4 m around it.
 FLOOR_SEARCH_OFFSETS = ((0.0, 0.0), (-0.4, 0.0), (0.0, -0.4), (0.0, 0.4), (0.4, 0.0))
@@ -134,7 +138,7 @@ async def fetch(
     async def body() -> ObjectDesignator:
         name = object_designator.current().get("name")
         object_pose = a.location(of_item_object=name).reference()
-        on_floor = object_pose.position[2] < FLOOR_HEIGHT
+        on_floor = object_pose.position[2] < floor_height()
         if robot_location is not None:
             where = robot_location.current()
         elif on_floor:
@@ -189,7 +193,7 @@ async def fetch(
         result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
     except ObjectUnfetchable as failure:
         height = _believed_height(object_designator)
-        if height is None or height >= FLOOR_HEIGHT:
+        if height is None or height >= floor_height():
             raise
         log.warning(
             "%s lies on the floor out of reach (%.2f m high)",
@@ -259,7 +263,7 @@ async def search_floor(object_designator: ObjectDesignator, failure: BaseExcepti
     spots of :data:`FLOOR_SEARCH_OFFSETS` in turn, each a ``searching`` with its own
     torso retry and no other sample (a ``floor-search`` retry per further spot). Returns
     the perceived designator. Not found anywhere, seen but not on the floor (below
-    :data:`FLOOR_HEIGHT`), or the object is not known by name (a designator never
+    :func:`floor_height`), or the object is not known by name (a designator never
     perceived): ``failure`` is raised again. Deliberate addition: no
     CRAM plan searches the floor; a dropped or knocked-off object was lost for good."""
     name = object_designator.current().get("name")
@@ -278,7 +282,7 @@ async def search_floor(object_designator: ObjectDesignator, failure: BaseExcepti
         except ObjectNowhereToBeFound:
             continue
         height = _believed_height(found)
-        if height is None or height >= FLOOR_HEIGHT:
+        if height is None or height >= floor_height():
             # seen, but not on the floor (still on its counter): nothing new to try
             log.info("%s seen from the floor search, but not on the floor", name)
             raise failure

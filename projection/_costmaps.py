@@ -32,8 +32,8 @@ from typing import Final
 import numpy as np
 import pybullet as pb
 
-from executive import kitchen
 from executive._pose import Pose, yaw_quaternion
+from kitchens import iai as kitchen
 from projection import _urdf
 
 __all__ = [

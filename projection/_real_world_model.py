@@ -9,6 +9,7 @@ from typing import Any
 import pybullet as pb
 
 from executive import Pose, ProbeResult
+from executive._kitchen import KitchenDescription
 from executive._robot import RobotDescription
 from executive.events import (
     ContainerClosed,
@@ -60,6 +61,11 @@ class RealWorldModel:
     def robot(self) -> RobotDescription:
         """The description of the robot (the belief's, the same robot as the true one's)."""
         return self.belief.robot
+
+    @property
+    def kitchen(self) -> KitchenDescription:
+        """The description of the kitchen (the belief's, the same kitchen as the true one's)."""
+        return self.belief.kitchen
 
     def object_pose(self, name: str, frame: str = "map") -> Pose:
         return self.belief.object_pose(name, frame)

@@ -1,5 +1,6 @@
 """The demo's scenes, beside the world they are built in: :func:`set_up_scene` places
-CRAM's table-setting objects (from :mod:`executive.kitchen`) at seeded random poses in
+CRAM's table-setting objects (the world's kitchen's demo scene,
+:attr:`executive.KitchenDescription.demo_objects`) at seeded random poses in
 their spawning regions (:data:`SPAWN_REGIONS`) or at CRAM's fixed poses, the spoon in the
 drawer; :func:`make_world_pair` builds a true world and a belief world from the same
 assets for the simulated real robot, the true one with CRAM's demo objects at their
@@ -26,10 +27,10 @@ from executive import (
     Pose,
     a,
     an,
-    kitchen,
     yaw_quaternion,
 )
 from executive._robot import RobotDescription
+from kitchens import iai
 from projection._objects import object_type
 from projection._real_body import settle
 from projection._world import World
@@ -51,11 +52,11 @@ SceneObject = tuple[str, Pose] | tuple[str, Pose, str]
 #: spoon lies in the drawer, attached to it): name -> (type, pose[, attached link]).
 DEMO_OBJECTS: Mapping[str, SceneObject] = {
     f"{t}-1": (
-        (t, kitchen.DEMO_POSES[t])
-        if t not in kitchen.DEMO_ATTACHMENTS
-        else (t, kitchen.DEMO_POSES[t], kitchen.DEMO_ATTACHMENTS[t])
+        (t, iai.DESCRIPTION.demo_poses[t])
+        if t not in iai.DESCRIPTION.demo_attachments
+        else (t, iai.DESCRIPTION.demo_poses[t], iai.DESCRIPTION.demo_attachments[t])
     )
-    for t in kitchen.DEMO_POSES  # in CRAM's fixed scene's spawning order
+    for t in iai.DESCRIPTION.demo_poses  # in CRAM's fixed scene's spawning order
 }
 
 
@@ -88,7 +89,7 @@ def make_world_pair(
         for name, entry in spec.items():
             otype, pose = entry[0], entry[1]
             if objects is None and len(entry) == 2:  # the demo: rest on the sink counter
-                top = true_world.link_aabb(kitchen.SINK_SURFACE)[1][2]
+                top = true_world.link_aabb(true_world.kitchen.start_surface)[1][2]
                 z = top + object_type(otype).size[2] / 2.0 + 0.001
                 pose = Pose((pose.position[0], pose.position[1], z), pose.orientation)
             true_world.spawn_object(name, otype, pose)
@@ -120,8 +121,12 @@ def make_world_pair(
 
 # --- the demo's scene set-up (issue 24: one module beside the world it builds) ---------
 
-_SINK = an.object(type="counter-top", urdf_name=kitchen.SINK_SURFACE, part_of="kitchen")
-_DRAWER = an.object(type="drawer", urdf_name=kitchen.DRAWER_LINK, part_of="kitchen")
+_SINK = an.object(
+    type="counter-top", urdf_name=iai.DESCRIPTION.start_surface, part_of=iai.DESCRIPTION.name
+)
+_DRAWER = an.object(
+    type="drawer", urdf_name=iai.DESCRIPTION.container.link, part_of=iai.DESCRIPTION.name
+)
 _LEFT, _FRONT = ("side", "left"), ("side", "front")
 
 #: Where a random scene samples an object, as location properties (``(for <type>)`` is
@@ -147,7 +152,7 @@ SPAWN_REGIONS: Mapping[str, tuple[tuple[str, Any], ...]] = MappingProxyType(
 DEFAULT_SPAWN_REGION: tuple[tuple[str, Any], ...] = (_LEFT, _FRONT, ("on", _SINK))
 
 #: Clearance (m) an object in the drawer keeps from the cabinet front once the drawer is
-#: open by the transport's accessing distance (:data:`executive.kitchen.DRAWER_OPENING`):
+#: open by the transport's accessing distance (:attr:`executive.ContainerDescription.opening`):
 #: nearer, the palm of a top grasp touches the counter top above the drawer.
 SPOON_CLEARANCE = 0.1
 #: How many samples of its region a random spawn tries for one the robot can reach.
@@ -166,7 +171,7 @@ class SceneSetUpError(ValueError):
 
 def set_up_scene(
     world: World,
-    objects: Sequence[str] = kitchen.DEMO_OBJECTS,
+    objects: Sequence[str] | None = None,
     *,
     random: bool = True,
     seed: int | None = None,
@@ -175,13 +180,14 @@ def set_up_scene(
     """Set up CRAM's table-setting scene in ``world``: the one call that builds the demo's
     scene, before the plan runs (the plan only acts: it never spawns).
 
-    Spawns ``<type>-1`` for each type of ``objects`` (from
-    :data:`executive.kitchen.DEMO_OBJECTS`, the one list of demo objects), replacing an
+    Spawns ``<type>-1`` for each type of ``objects`` (default: all of them; from the
+    world's kitchen's :attr:`executive.KitchenDescription.demo_objects`, the one list of
+    demo objects), replacing an
     object of that name: with ``random``, at a sample of its spawning region
     (:data:`SPAWN_REGIONS`) that the robot can reach, collision-free with the objects
     spawned before it, turned by a yaw drawn from ``seed``; otherwise at CRAM's fixed pose
-    (:data:`executive.kitchen.DEMO_POSES`). An object listed in
-    :data:`executive.kitchen.DEMO_ATTACHMENTS` is attached to its link (the spoon to the
+    (``demo_poses``). An object listed in the kitchen's
+    ``demo_attachments`` is attached to its link (the spoon to the
     drawer). Then the world settles for ``settle_steps`` physics steps (0: the objects
     stay exactly where they were put). Returns each object's pose, by name.
 
@@ -196,14 +202,18 @@ def set_up_scene(
     :class:`SceneSetUpError` naming the demo's types; not a World, ``TypeError``."""
     if not isinstance(world, World):
         raise TypeError(f"set_up_scene needs a projection.World, got {world!r}")
+    kitchen = world.kitchen
+    if objects is None:
+        objects = kitchen.demo_objects
     if isinstance(objects, str):
         raise SceneSetUpError(f"objects is a sequence of types, e.g. ({objects!r},)")
-    unknown = [t for t in objects if t not in kitchen.DEMO_POSES]
+    unknown = [t for t in objects if t not in kitchen.demo_poses]
     if unknown:
         raise SceneSetUpError(
             f"unknown object type{'s' if len(unknown) > 1 else ''} "
             f"{', '.join(map(repr, unknown))}; the demo's types: "
-            f"{', '.join(kitchen.DEMO_OBJECTS)} (a new one is added in executive.kitchen)"
+            f"{', '.join(kitchen.demo_objects)} (a new one is added in the kitchen's "
+            "description, kitchens.<name>.DESCRIPTION)"
         )
     twice = sorted({t for t in objects if list(objects).count(t) > 1})
     if twice:
@@ -260,8 +270,8 @@ def _spawn_one(world: World, object_type: str, random: bool, rng: np.random.Gene
         )
         _spawn_at_free_yaw(world, name, object_type, sample, rng)
     else:
-        world.spawn_object(name, object_type, kitchen.DEMO_POSES[object_type])
-    link = kitchen.DEMO_ATTACHMENTS.get(object_type)
+        world.spawn_object(name, object_type, world.kitchen.demo_poses[object_type])
+    link = world.kitchen.demo_attachments.get(object_type)
     if link is not None:
         world.attach(name, link)
 
@@ -270,12 +280,13 @@ def _spawn_filter(world: World, object_type: str) -> Callable[[Pose], bool]:
     """Deliberate restriction of the drawer's spawning region (CRAM: ``(range 0.2)``
     around the drawer box's centre, i.e. up to 0.29 m deep in this 0.58 m drawer): only
     the part that comes out at least :data:`SPOON_CLEARANCE` beyond the cabinet front when
-    the drawer is opened :data:`executive.kitchen.DRAWER_OPENING` along -x (the sink-side
+    the drawer is opened by the kitchen's container opening along -x (the sink-side
     drawer opens towards -x; its closed front is its box's -x face)."""
-    if kitchen.DEMO_ATTACHMENTS.get(object_type) != kitchen.DRAWER_LINK:
+    container = world.kitchen.container
+    if world.kitchen.demo_attachments.get(object_type) != container.link:
         return lambda _pose: True
-    front = world.link_aabb(kitchen.DRAWER_LINK)[0][0]
-    opening = kitchen.DRAWER_OPENING
+    front = world.link_aabb(container.link)[0][0]
+    opening = container.opening
     return lambda pose: pose.position[0] - opening <= front - SPOON_CLEARANCE
 
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
-from executive import kitchen
+from kitchens import iai as kitchen
 from projection._objects import OBJECT_TYPES, ObjectType, Shape
 
 __all__ = [

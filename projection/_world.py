@@ -42,6 +42,7 @@ Poses are :class:`executive._pose.Pose` in ``map`` or ``base_footprint``.
 
 from __future__ import annotations
 
+from executive._kitchen import KitchenDescription
 from executive._robot import RobotDescription
 from projection._world_base import ASSETS, DEFAULT_TORSO, FRAMES, KITCHEN
 from projection._world_collisions import COLLISION_TOLERANCE, Contact
@@ -71,10 +72,14 @@ __all__ = [
 class World(Perception, Grippers, ArmIK, Containers, Snapshots, Stability, BodyMotions):
     """A PyBullet projection world (see the module docstring).
 
-    ``World(seed=None, gui=False, *, robot=None)``; ``robot``: an
+    ``World(seed=None, gui=False, *, robot=None, kitchen=None)``; ``robot``: an
     :class:`executive.RobotDescription` (default ``robots.pr2.DESCRIPTION``); one that
     does not fit its URDF raises :class:`executive.RobotDescriptionError` before anything
-    is loaded. ``close()`` is idempotent and the world is a context manager; any use after
+    is loaded. ``kitchen``: the :class:`executive.KitchenDescription` of the kitchen
+    (default ``kitchens.iai.DESCRIPTION``; the kitchen's body is always the projection's
+    generated kitchen, ``assets/kitchen.urdf``); one naming a link or joint that URDF
+    lacks raises :class:`executive.KitchenDescriptionError` before anything is loaded.
+    ``close()`` is idempotent and the world is a context manager; any use after
     ``close()`` raises :class:`RuntimeError`. A new world has the robot at the map
     origin, every arm in the description's ``initial_state`` (parked), the torso at its
     ``torso.default`` (the PR2-like robot's: :data:`DEFAULT_TORSO`), the head forward,
@@ -89,7 +94,12 @@ class World(Perception, Grippers, ArmIK, Containers, Snapshots, Stability, BodyM
     """
 
     def __init__(
-        self, seed: int | None = None, gui: bool = False, *, robot: RobotDescription | None = None
+        self,
+        seed: int | None = None,
+        gui: bool = False,
+        *,
+        robot: RobotDescription | None = None,
+        kitchen: KitchenDescription | None = None,
     ) -> None:
-        super().__init__(seed, gui, robot=robot)
+        super().__init__(seed, gui, robot=robot, kitchen=kitchen)
         self._init_ik()

@@ -17,8 +17,10 @@ from typing import Any, Self
 import numpy as np
 import pybullet as pb
 
+from executive._kitchen import KitchenDescription
 from executive._pose import Pose
 from executive._robot import ARM_NAMES, KinematicTree, RobotDescription, RobotDescriptionError
+from kitchens import iai
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
@@ -98,8 +100,24 @@ class WorldBase:
     :class:`projection.World` (see there)."""
 
     def __init__(
-        self, seed: int | None = None, gui: bool = False, *, robot: RobotDescription | None = None
+        self,
+        seed: int | None = None,
+        gui: bool = False,
+        *,
+        robot: RobotDescription | None = None,
+        kitchen: KitchenDescription | None = None,
     ) -> None:
+        if kitchen is None:
+            kitchen = iai.DESCRIPTION
+        if not isinstance(kitchen, KitchenDescription):
+            raise TypeError(
+                f"World(kitchen=...) takes an executive.KitchenDescription, got {kitchen!r}"
+            )
+        # the description is checked against the kitchen's URDF before anything is loaded
+        kitchen.validate(KinematicTree.from_urdf(ASSETS / "kitchen.urdf"))
+        #: The description of the kitchen this world holds: the surfaces, container and
+        #: floor height the plans use by role, and the demo scene.
+        self.kitchen: KitchenDescription = kitchen
         if robot is None:
             robot = pr2.DESCRIPTION
         if not isinstance(robot, RobotDescription):

@@ -16,6 +16,7 @@ import pybullet as pb
 
 from cpl import PlanFailure as _PlanFailure
 from executive import Pose, ProbeResult
+from executive._kitchen import KitchenDescription
 from executive._robot import RobotDescription
 from executive.events import (
     ContainerClosed,
@@ -102,6 +103,11 @@ class ProjectedWorldModel:
     def robot(self) -> RobotDescription:
         """The description of the robot the world holds."""
         return self.world.robot
+
+    @property
+    def kitchen(self) -> KitchenDescription:
+        """The description of the kitchen the world holds."""
+        return self.world.kitchen
 
     # ------------------------------------------------------------------ queries
     def _known(self, name: Any) -> str:

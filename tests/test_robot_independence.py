@@ -2,7 +2,12 @@
 aside) never spells a robot's name, a joint or link name of any robot described in the
 top-level ``robots`` package, or a fragment such a name is assembled from, and never uses
 the PR2-specific constants of :mod:`executive.knowledge`. The plans read all of that from
-the environment's :class:`executive.RobotDescription`."""
+the environment's :class:`executive.RobotDescription`.
+
+No kitchen either (issue 25, item 2): the same code never spells a link or joint name of
+the kitchen (those of the projection's kitchen URDF and every name a description of the
+top-level ``kitchens`` package gives); the plans read the kitchen's surfaces, container and
+floor from the environment's :class:`executive.KitchenDescription`."""
 
 from __future__ import annotations
 
@@ -14,8 +19,9 @@ from pathlib import Path
 
 import pytest
 
+import kitchens
 import robots
-from executive import KinematicTree, RobotDescription
+from executive import KinematicTree, KitchenDescription, RobotDescription
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("plans", "executive")
@@ -226,4 +232,70 @@ def test_plans_and_executive_spell_no_robot(words: frozenset[str]) -> None:
     assert not found, (
         "plans/ and executive/ must read the robot from current_environment().robot "
         "(an executive.RobotDescription), never spell it:\n" + "\n".join(found)
+    )
+
+
+# ---------------------------------------------------------------------------- kitchens
+def kitchen_descriptions() -> list[KitchenDescription]:
+    """Every ``DESCRIPTION`` of a module of the ``kitchens`` package (by type)."""
+    found = []
+    for info in pkgutil.iter_modules(kitchens.__path__):
+        module = importlib.import_module(f"kitchens.{info.name}")
+        description = getattr(module, "DESCRIPTION", None)
+        if isinstance(description, KitchenDescription):
+            found.append(description)
+    return found
+
+
+def kitchen_words() -> frozenset[str]:
+    """Every link and joint name of the projection's kitchen URDF, and every link or joint
+    a kitchen description names (the kitchen's body name, CRAM's ``kitchen``, is the
+    role designators say ``part-of``, not a link: it is not one of them)."""
+    from projection._world_base import ASSETS
+
+    tree = KinematicTree.from_urdf(ASSETS / "kitchen.urdf")
+    words = {*tree.links, *tree.joints}
+    for d in kitchen_descriptions():
+        c = d.container
+        words |= {d.start_surface, d.table_surface, c.link, c.joint, c.handle}
+        words |= set(d.demo_attachments.values())
+    return frozenset(words)
+
+
+def kitchen_violations(root: Path, words: frozenset[str]) -> list[str]:
+    """``path:line: what`` of every kitchen link or joint spelt in the packages under
+    ``root``."""
+    out = []
+    for path in _files(root):
+        found = robot_spellings(path.read_text(), words, names=frozenset())
+        out += [f"{path.relative_to(root)}:{v}" for v in found]
+    return out
+
+
+def test_the_kitchen_words_are_the_described_kitchens() -> None:
+    found = kitchen_descriptions()
+    assert found, "the kitchens package describes no kitchen"
+    words = kitchen_words()
+    for d in found:
+        assert {d.start_surface, d.table_surface, d.container.link, d.container.joint} <= words
+    assert "kitchen" not in words  # the role word, not a link
+
+
+def test_the_check_finds_kitchen_names() -> None:
+    old = (
+        'SINK_SURFACE = "sink_area_surface"\n'
+        'DRAWER_JOINT = f"{DRAWER_LINK}_joint"\n'
+        'handle = f"{side}_upper_drawer_handle"\n'
+        'on = an.object(type="counter-top", urdf_name=k.start_surface, part_of=k.name)\n'
+        'def f():\n    """The ``kitchen_island_surface`` in a docstring is fine."""\n'
+    )
+    found = robot_spellings(old, kitchen_words(), names=frozenset())
+    assert [int(v.split(":")[0]) for v in found] == [1, 3]
+
+
+def test_plans_and_executive_spell_no_kitchen() -> None:
+    found = kitchen_violations(ROOT, kitchen_words())
+    assert not found, (
+        "plans/ and executive/ must read the kitchen from current_environment().kitchen "
+        "(an executive.KitchenDescription), never spell its links:\n" + "\n".join(found)
     )

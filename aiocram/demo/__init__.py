@@ -23,10 +23,10 @@ One module per concept:
 - :mod:`._outputs`: ``plans.log`` and the pictures; :mod:`._summary`: the console
   summary; :mod:`._cli`: the command.
 
-**Adding a demo object** (one place): add its type to
-:data:`executive.kitchen.DEMO_OBJECTS` (in the order it is set), with CRAM's fixed
-spawning pose in :data:`executive.kitchen.DEMO_POSES` (and, if it starts in a container,
-the link in :data:`executive.kitchen.DEMO_ATTACHMENTS`); the demo's and the campaign's
+**Adding a demo object** (one place): add its type to the
+kitchen's ``demo_objects`` (``kitchens.iai.DESCRIPTION``, in the order it is set), with
+CRAM's fixed spawning pose in its ``demo_poses`` (and, if it starts in a container, the
+link in its ``demo_attachments``); the demo's and the campaign's
 ``--objects``, their checks and the scene (:func:`projection.set_up_scene`, which
 samples a random scene's new type in CRAM's spawning region on the sink counter unless
 ``projection._scene.SPAWN_REGIONS`` narrows it) derive from that list. The object's type

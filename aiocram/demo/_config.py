@@ -2,7 +2,8 @@
 moves or is written (:class:`DemoConfigError` names the flag), and the command-line
 pieces the ``demo`` and ``campaign`` parsers share (the objects, whole numbers, speed).
 
-The demo's objects are :data:`executive.kitchen.DEMO_OBJECTS` (see :mod:`aiocram.demo`
+The demo's objects are :attr:`executive.KitchenDescription.demo_objects` of
+``kitchens.iai.DESCRIPTION`` (see :mod:`aiocram.demo`
 for where a newcomer adds one); every list and check here derives from it.
 """
 
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from executive import kitchen
+from kitchens import iai
 
 __all__ = [
     "DEFAULT_OBJECTS",
@@ -32,8 +33,8 @@ __all__ = [
     "whole",
 ]
 
-#: The demo's objects, in the order they are set: :data:`executive.kitchen.DEMO_OBJECTS`.
-DEFAULT_OBJECTS: tuple[str, ...] = kitchen.DEMO_OBJECTS
+#: The demo's objects, in the order they are set: the kitchen's ``demo_objects``.
+DEFAULT_OBJECTS: tuple[str, ...] = iai.DESCRIPTION.demo_objects
 
 
 #: The robot the demo runs unless ``--robot`` says otherwise: ``robots.pr2``.

@@ -12,6 +12,7 @@ import cpl
 import executive
 import plans
 from executive import an, perform
+from kitchens.iai import DESCRIPTION as KITCHEN
 from plans.demo import fetch_location, place_location
 from projection import (
     FaultProfile,
@@ -30,8 +31,8 @@ def transport_bowl() -> Any:
     return an.action(
         type="transporting",
         object=an.object(type="bowl"),
-        location=fetch_location("bowl"),
-        target=place_location("bowl"),
+        location=fetch_location("bowl", KITCHEN),
+        target=place_location("bowl", kitchen=KITCHEN),
     )
 
 

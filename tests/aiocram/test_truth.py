@@ -9,7 +9,6 @@ import pytest
 
 import cpl
 from aiocram.truth import (
-    DRAWER_JOINT,
     NEAR_TARGET,
     TruthObserver,
     leaked_tasks,
@@ -250,7 +249,7 @@ def test_never_released_object_is_not_delivered_even_on_the_island(worlds):
 def test_open_drawer_fails_drawer_closed(worlds):
     true_world, belief_world = worlds
     obs = _observed(true_world, belief_world)
-    true_world.set_container(DRAWER_JOINT, 0.2)
+    true_world.set_container(true_world.kitchen.container.joint, 0.2)
     report = obs.measure({})
     assert not report.invariants["drawer_closed"]
     assert "0.200" in report.violations["drawer_closed"]

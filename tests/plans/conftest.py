@@ -14,6 +14,7 @@ import plans  # noqa: F401 - registers the action rules
 from cpl.testing import MockClock, run_guarded
 from executive import Pose, RobotDescription, RuleSet, static_rules
 from executive.testing import FakeProcessModule, InMemoryWorld
+from kitchens.iai import DESCRIPTION as KITCHEN
 from robots.pr2 import DESCRIPTION as PR2
 
 HANDLE = "sink_area_left_upper_drawer_handle"
@@ -137,6 +138,7 @@ def cup_world_for(robot: RobotDescription) -> InMemoryWorld:
         types={"cup-1": "cup"},
         links={HANDLE: Pose((1.1, 1.0, 0.78)), **hand_links(robot)},
         robot=robot,
+        kitchen=KITCHEN,
     )
 
 

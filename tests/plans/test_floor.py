@@ -10,7 +10,7 @@ import math
 from typing import Any
 
 import pytest
-from conftest import PR2, hand_links, make_robot, transport_for_real
+from conftest import KITCHEN, PR2, hand_links, make_robot, transport_for_real
 
 import plans  # noqa: F401 - the action rules
 from executive import ObjectNowhereToBeFound, Pose, an, perform
@@ -56,6 +56,7 @@ def _floor_world() -> InMemoryWorld:
         types={"cup-1": "cup"},
         links=hand_links(PR2),
         robot=PR2,
+        kitchen=KITCHEN,
     )
     return world
 

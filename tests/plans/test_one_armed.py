@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import PR2, cup_world_for, location_generator, make_robot
+from conftest import KITCHEN, PR2, cup_world_for, location_generator, make_robot
 
 import executive
 from executive import (
@@ -201,7 +201,9 @@ def test_the_demos_initialization_opens_the_one_gripper() -> None:
 
 # -------------------------------------------------------------------- no description
 def test_a_plan_on_a_world_without_a_description_names_the_fix() -> None:
-    world = InMemoryWorld(objects={"cup-1": Pose((1.3, 0.6, 0.9))}, types={"cup-1": "cup"})
+    world = InMemoryWorld(
+        objects={"cup-1": Pose((1.3, 0.6, 0.9))}, types={"cup-1": "cup"}, kitchen=KITCHEN
+    )
     robot = make_robot(world)
     cup = an.object(type="cup", name="cup-1")
     with pytest.raises(NoRobotDescription, match=r"carries no robot description.*robot=") as e:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from executive import DesignatorError, Pose, a, an, perform
+from kitchens.iai import DESCRIPTION as KITCHEN
 from plans.demo import fetch_location, place_location
 
 projection = pytest.importorskip("projection")
@@ -51,7 +52,7 @@ def test_unknown_surface_fails_before_the_robot_moves(mrun, world):
     transport = an.action(
         type="transporting",
         object=an.object(type="bowl"),
-        location=fetch_location("bowl"),
+        location=fetch_location("bowl", KITCHEN),
         target=a.location(on=nowhere),
     )
     with pytest.raises(DesignatorError, match="'nowhere_surface', which this world does not"):
@@ -78,8 +79,8 @@ def test_unknown_action_key_fails_before_the_robot_moves(mrun, world):
 
 @pytest.mark.parametrize("object_type", ["cup", "spoon", "milk"])
 def test_placing_targets_need_the_bowl_only_once_it_is_placed(object_type):
-    alone = place_location(object_type, bowl_placed=False)
-    beside = place_location(object_type, bowl_placed=True)
+    alone = place_location(object_type, bowl_placed=False, kitchen=KITCHEN)
+    beside = place_location(object_type, bowl_placed=True, kitchen=KITCHEN)
 
     def mentions_bowl(loc) -> bool:
         return any(
@@ -92,7 +93,10 @@ def test_placing_targets_need_the_bowl_only_once_it_is_placed(object_type):
 
 
 def test_opening_a_drawer_too_far_fails_before_the_arm_moves(mrun, world):
-    from plans.demo import DRAWER
+    from kitchens.iai import DESCRIPTION as kitchen
+    from plans.demo import container
+
+    DRAWER = container(kitchen)
 
     before = _state(world)
     with pytest.raises(DesignatorError, match=r"opened by at most 0\.480 m"):
@@ -146,9 +150,9 @@ def test_an_unknown_object_type_names_the_known_types_before_the_robot_moves(
     mrun, world, action_type
 ):
     before = _state(world)
-    keys = {} if action_type == "fetching" else {"location": fetch_location("bowl")}
+    keys = {} if action_type == "fetching" else {"location": fetch_location("bowl", KITCHEN)}
     if action_type == "transporting":
-        keys["target"] = place_location("bowl")
+        keys["target"] = place_location("bowl", kitchen=KITCHEN)
     action = an.action(type=action_type, object=an.object(type="bwol"), **keys)
     with pytest.raises(
         DesignatorError, match=r"unknown object type 'bwol'; did you mean bowl\?.*known types"
@@ -186,7 +190,9 @@ def test_an_unknown_arm_is_reported_at_the_action_given_it(mrun, world, action_t
     before = _state(world)
     keys = {"arm": "middle", "object": an.object(type="bowl")}
     if action_type == "transporting":
-        keys.update(location=fetch_location("bowl"), target=place_location("bowl"))
+        keys.update(
+            location=fetch_location("bowl", KITCHEN), target=place_location("bowl", kitchen=KITCHEN)
+        )
     if action_type == "picking-up":
         keys["object"] = an.object(type="bowl", name="bowl-1", pose=Pose((1.4, 0.8, 0.87)))
     with pytest.raises(

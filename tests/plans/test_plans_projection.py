@@ -11,6 +11,7 @@ import cpl
 import plans
 from executive import Pose, a, an, current_environment, knowledge, perform
 from executive.events import ContainerOpened, ObjectAttached
+from kitchens.iai import DESCRIPTION as KITCHEN
 from robots.pr2 import DESCRIPTION as PR2
 
 projection = pytest.importorskip("projection")
@@ -138,11 +139,11 @@ def settled_moves(world, names, steps: int = 300) -> dict[str, float]:
 )
 def test_table_setting(mrun, seed):
     world = projection.World(seed=seed)
-    projection.set_up_scene(world, plans.demo.OBJECTS, seed=seed, settle_steps=0)
+    projection.set_up_scene(world, KITCHEN.demo_objects, seed=seed, settle_steps=0)
     outcomes = run_projected(
-        mrun, world, plans.table_setting, plans.demo.OBJECTS
+        mrun, world, plans.table_setting, KITCHEN.demo_objects
     )  # mrun: no task alive, every transition legal
-    assert list(outcomes) == list(plans.demo.OBJECTS)
+    assert list(outcomes) == list(KITCHEN.demo_objects)
     failed = {t: o.failure for t, o in outcomes.items() if not o.success}
     assert failed == {}
     for object_type, outcome in outcomes.items():

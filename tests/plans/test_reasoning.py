@@ -19,7 +19,7 @@ from contextlib import asynccontextmanager
 from typing import Any
 
 import pytest
-from conftest import PR2, base_poses, hand_links, location_generator, make_robot
+from conftest import KITCHEN, PR2, base_poses, hand_links, location_generator, make_robot
 
 import cpl
 import executive
@@ -125,6 +125,7 @@ def setup(offsets: list[float] | None = None, **imagination_fail_on: Any) -> Any
         types={"cup-1": "cup"},
         links=hand_links(PR2),
         robot=PR2,
+        kitchen=KITCHEN,
     )
     real = make_robot(world)
     dream = make_robot(world, **imagination_fail_on)

@@ -96,7 +96,10 @@ def test_an_environment_without_a_world_model_skips_the_place_check() -> None:
     """``_check_places`` means to skip its check when there is no world model; reading
     ``Environment.world`` there raises ``NoWorldModel`` (a ``LookupError``, which
     ``getattr``'s default does not catch), so the action's rule failed to resolve."""
-    from plans.demo import ISLAND, SINK
+    from kitchens.iai import DESCRIPTION as kitchen
+    from plans.demo import start_surface, table_surface
+
+    SINK, ISLAND = start_surface(kitchen), table_surface(kitchen)
 
     transport = an.action(
         type="transporting",

@@ -10,8 +10,9 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from executive import Pose, kitchen, knowledge
+from executive import Pose, knowledge
 from executive.failures import ManipulationPoseUnreachable
+from kitchens import iai as kitchen
 from projection import World
 from projection._collision_model import CollisionModel
 from projection._motion_planner import ArmMotionPlanner, ArmTrajectory, time_parameterise

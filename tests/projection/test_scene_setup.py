@@ -9,7 +9,8 @@ from typing import Any
 import pytest
 
 import cpl
-from executive import an, kitchen
+from executive import an
+from kitchens import iai
 
 projection = pytest.importorskip("projection")
 
@@ -46,13 +47,15 @@ def world() -> Any:
 def test_a_seed_gives_the_scene_it_gave_before_the_move(seed: int) -> None:
     world = projection.World(seed=seed)
     try:
-        poses = projection.set_up_scene(world, kitchen.DEMO_OBJECTS, seed=seed, settle_steps=0)
+        poses = projection.set_up_scene(
+            world, iai.DESCRIPTION.demo_objects, seed=seed, settle_steps=0
+        )
         expected = SCENES_BEFORE_THE_MOVE[seed]
         assert list(poses) == list(expected)  # spawned in the demo's order
         for name, (position, orientation) in expected.items():
             assert poses[name].position == pytest.approx(position, abs=1e-8), name
             assert poses[name].orientation == pytest.approx(orientation, abs=1e-8), name
-        assert world.attachments == {"spoon-1": kitchen.DRAWER_LINK}  # in the drawer
+        assert world.attachments == {"spoon-1": iai.DRAWER_LINK}  # in the drawer
     finally:
         world.close()
 
@@ -64,7 +67,7 @@ def test_random_scenes_spawn_for_every_seed_without_overlap(seed: int) -> None:
     world = projection.World(seed=seed)
     try:
         poses = projection.set_up_scene(world, seed=seed, settle_steps=0)
-        assert sorted(poses) == sorted(f"{t}-1" for t in kitchen.DEMO_OBJECTS)
+        assert sorted(poses) == sorted(f"{t}-1" for t in iai.DESCRIPTION.demo_objects)
         for name in poses:  # no object reaches into another (the world's own contact test)
             deep = [c for c in world.contacts(name, tolerance=0.005) if c.body_b in poses]
             assert deep == [], (name, deep)
@@ -82,8 +85,8 @@ def test_settling_lets_the_objects_come_to_rest(world: Any) -> None:
 
 def test_fixed_poses_are_crams_and_need_no_running_plan(world: Any) -> None:
     poses = projection.set_up_scene(world, ("bowl", "spoon"), random=False, settle_steps=0)
-    assert poses["bowl-1"].position == pytest.approx(kitchen.DEMO_POSES["bowl"].position)
-    assert world.attachments == {"spoon-1": kitchen.DRAWER_LINK}
+    assert poses["bowl-1"].position == pytest.approx(iai.DESCRIPTION.demo_poses["bowl"].position)
+    assert world.attachments == {"spoon-1": iai.DRAWER_LINK}
 
 
 def test_a_second_set_up_replaces_the_objects_of_the_same_name(world: Any) -> None:
@@ -157,8 +160,10 @@ def test_each_spawn_region_narrows_where_the_plan_then_looks() -> None:
     plans_demo = pytest.importorskip("plans.demo")
     from projection._scene import spawn_region
 
-    for object_type in kitchen.DEMO_OBJECTS:
-        fetch = {repr(p) for p in plans_demo.fetch_location(object_type).properties}
+    for object_type in iai.DESCRIPTION.demo_objects:
+        fetch = {
+            repr(p) for p in plans_demo.fetch_location(object_type, iai.DESCRIPTION).properties
+        }
         spawn = [repr(p) for p in spawn_region(object_type).properties]
         assert fetch <= set(spawn), object_type
         assert spawn[-1] == repr(("for", an.object(type=object_type)))

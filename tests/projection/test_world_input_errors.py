@@ -179,11 +179,11 @@ def test_bad_object_poses_are_refused_naming_the_argument(world, case):
 
 
 def test_the_demo_poses_are_still_accepted(world):
-    from executive import kitchen
+    from kitchens.iai import DESCRIPTION as kitchen
 
-    for object_type, pose in kitchen.DEMO_POSES.items():
+    for object_type, pose in kitchen.demo_poses.items():
         world.spawn_object(f"{object_type}-1", object_type, pose)
-    assert len(world.objects) == len(kitchen.DEMO_POSES)
+    assert len(world.objects) == len(kitchen.demo_poses)
 
 
 def test_a_negative_seed_names_the_argument():
