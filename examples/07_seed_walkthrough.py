@@ -19,9 +19,12 @@ Which of the seed's numbers depend on the PR2 (the seed's tutorial was written f
   height; another arm may not reach them (the Panda does not reach the hand pose, 0.86 m
   out to the side: the step then says so and the walkthrough goes on);
 - looking at that hand pose to see the cup: the PR2's head camera sees the cup from there;
-  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, does not);
-- what the pick prints: the link the cup hangs from (``l_wrist_roll_link``) and the cup's
-  height while held (1.067 m), the PR2's hand geometry and its ``top`` grasp.
+  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, sees it past
+  the Panda's parked arm);
+- what the pick prints: the link the cup hangs from (``l_wrist_roll_link``; the Panda's:
+  ``panda_hand``) and the cup's height while held (1.067 m; the Panda's: 1.069 m), the
+  hand's geometry and its ``top`` grasp, and so the height the cup is put down at (the
+  PR2's: 0.988 m; the Panda's: 0.990 m).
 
 Robot-independent: the base poses driven to ((0.5, 0, 0), (0.75, 0, 0), the origin,
 (-0.5, 0, 0)), the cup detected 1 m ahead of the base, the cup following the hand from

@@ -30,3 +30,26 @@ def test_example_07_replays_the_seed_with_its_numbers() -> None:
     assert "the cup followed the hand: <Pose map (-0.000 0.300 1.067)" in out
     assert "held: nothing" in out
     assert "ObjectOutcome(type='bowl', name='bowl-1', success=True" in out
+
+
+def test_example_07_runs_through_with_the_panda() -> None:
+    """The seed's robot-independent steps with the mobile Panda: the seed's hand pose is
+    beyond its arm (said, not raised), and its mast camera sees the cup at (0.5, 0.3, 1.0)
+    past its parked arm (the arm parked in front of the torso hid it)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "07_seed_walkthrough.py"), "3", "panda"],
+        capture_output=True,
+        text=True,
+        timeout=300,  # a hung run fails instead of hanging the suite
+        env=env,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    assert "pose=<Pose base_footprint (1.000 0.000 1.300)" in out  # the cup seen 1 m ahead
+    assert "beyond this robot's left arm" in out
+    assert "held by panda_hand at <Pose map (0.500 0.300" in out
+    assert "the cup followed the hand: <Pose map (0.000 0.300" in out
+    assert "held: nothing" in out
+    assert "ObjectOutcome(type='bowl', name='bowl-1', success=True" in out
