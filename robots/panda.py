@@ -101,15 +101,12 @@ DESCRIPTION = RobotDescription(
             # like the PR2-like robot's 0.7 m of its ~0.95 m, from a mount 0.12 m ahead
             reach=Reach(in_reach_distance=0.8, minimal_distance=0.2),
             states={
-                # folded up over the base's centre, the hand pointing down behind the
-                # arm's base; the camera sees past it (both states: the tool over the
-                # base, no part of the arm in the base, torso or mast, the arm in no ray
-                # from the camera to the table-height points the head turns to; tested).
-                # A hand folded in front of the torso (1.15 m high) hid a fifth of them
-                # and made detection retry, and the seed's cup, unseen
-                "park": (-0.2, -1.7, 0.0, -2.3, 0.0, 0.5, 0.785),
+                # folded over the base, the hand down in front of the torso (both
+                # states: the tool over the base, no part of the arm in the base, torso
+                # or mast; tested)
+                "park": (0.0, -1.7, 0.0, -3.0, 0.0, 1.3, 0.785),
                 # a held object over the front of the base, the hand pointing down
-                "carry": (-0.2, -1.1, 0.0, -2.0, 0.0, 0.9, 0.785),
+                "carry": (0.0, -1.4, 0.0, -2.9, 0.0, 1.5, 0.785),
             },
             # IK seeds (after the arm's current joints, nearest tool first): the two
             # states and three self-collision-free configurations chosen greedily from 60
@@ -117,8 +114,8 @@ DESCRIPTION = RobotDescription(
             # 72 back and top grasps 0.45-0.75 m ahead of the base, 0.8-1.1 m high (44
             # clean against 31 with projection's generated seeds)
             ik_seeds=(
-                (-0.2, -1.7, 0.0, -2.3, 0.0, 0.5, 0.785),
-                (-0.2, -1.1, 0.0, -2.0, 0.0, 0.9, 0.785),
+                (0.0, -1.7, 0.0, -3.0, 0.0, 1.3, 0.785),
+                (0.0, -1.4, 0.0, -2.9, 0.0, 1.5, 0.785),
                 (-0.57, 0.66, 0.73, -1.74, 1.74, 2.28, 1.47),
                 (1.04, 0.98, -1.04, -2.29, 0.66, 2.82, 2.2),
                 (1.37, 0.01, -1.3, -2.59, 1.94, 2.66, -1.53),

@@ -34,8 +34,10 @@ def test_example_07_replays_the_seed_with_its_numbers() -> None:
 
 def test_example_07_runs_through_with_the_panda() -> None:
     """The seed's robot-independent steps with the mobile Panda: the seed's hand pose is
-    beyond its arm (said, not raised), and its mast camera sees the cup at (0.5, 0.3, 1.0)
-    past its parked arm (the arm parked in front of the torso hid it)."""
+    beyond its arm, and its mast camera does not see the cup at (0.5, 0.3, 1.0) from the
+    PR2's view point (its parked hand is in the way): both said, not raised; it then
+    turns towards the cup to detect it, turns back, picks it up, carries it and puts it
+    down."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run(
         [sys.executable, str(ROOT / "examples" / "07_seed_walkthrough.py"), "3", "panda"],
@@ -49,6 +51,7 @@ def test_example_07_runs_through_with_the_panda() -> None:
     out = done.stdout
     assert "pose=<Pose base_footprint (1.000 0.000 1.300)" in out  # the cup seen 1 m ahead
     assert "beyond this robot's left arm" in out
+    assert "not seen from there" in out and "turning towards the cup instead" in out
     assert "held by panda_hand at <Pose map (0.500 0.300" in out
     assert "the cup followed the hand: <Pose map (0.000 0.300" in out
     assert "held: nothing" in out
