@@ -19,9 +19,13 @@ Which of the seed's numbers depend on the PR2 (the seed's tutorial was written f
   height; another arm may not reach them (the Panda does not reach the hand pose, 0.86 m
   out to the side: the step then says so and the walkthrough goes on);
 - looking at that hand pose to see the cup: the PR2's head camera sees the cup from there;
-  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, does not);
-- what the pick prints: the link the cup hangs from (``l_wrist_roll_link``) and the cup's
-  height while held (1.067 m), the PR2's hand geometry and its ``top`` grasp.
+  a camera elsewhere may not (the Panda's mast camera, 0.22 m to the side, looks at the
+  cup past its parked hand, which hides most of it: the step says so, and the robot turns
+  its base towards the cup on the spot, detects it and turns back);
+- what the pick prints: the link the cup hangs from (``l_wrist_roll_link``; the Panda's:
+  ``panda_hand``) and the cup's height while held (1.067 m; the Panda's: 1.069 m), the
+  hand's geometry and its ``top`` grasp, and so the height the cup is put down at (the
+  PR2's: 0.988 m; the Panda's: 0.990 m).
 
 Robot-independent: the base poses driven to ((0.5, 0, 0), (0.75, 0, 0), the origin,
 (-0.5, 0, 0)), the cup detected 1 m ahead of the base, the cup following the hand from
@@ -39,6 +43,7 @@ import robots
 from cpl.display import render_text
 from executive import (
     ManipulationPoseUnreachable,
+    PerceptionObjectNotFound,
     Pose,
     a,
     an,
@@ -96,7 +101,26 @@ async def walkthrough(world: projection.World) -> None:
         spawned = world.object_pose("cup-1")
         show("(spawn-object 'cup-1 :cup :pose ((0.5 0.3 1.0) (0 0 0 1)))", spawned)
         await perform(an.action(type="looking", target=a.location(pose=hand)))
-        cup = await perform(an.action(type="detecting", object=an.object(type="cup")))
+        detecting = an.action(type="detecting", object=an.object(type="cup"))
+        try:
+            cup = await perform(detecting)
+        except PerceptionObjectNotFound as exc:  # the seed's view is the PR2's head's
+            show("(perform (an action (type detecting) ...))", f"not seen from there: {exc}")
+            # turn the base towards the cup (on the spot), look at it, and turn back
+            turned = Pose.from_xyz_yaw(0.0, 0.0, 0.0, 0.8)
+            await perform(an.action(type="going", target=a.location(pose=turned)))
+            await perform(an.action(type="looking", target=a.location(pose=spawned)))
+            seen = (await perform(detecting)).get("pose")  # in map
+            await perform(origin)
+            # the detected pose, in the base frame the robot has turned back to
+            in_base = world.robot_pose().to_transform(base).inverse() * seen
+            cup = an.object(
+                type="cup",
+                name="cup-1",
+                pose=seen,
+                transform=in_base.to_transform("cup-1"),
+            )
+            show("turning towards the cup instead (0.8 rad on the spot) and back", "")
         show("(perform (an action (type detecting) (object (an object (type cup)))))", cup)
         await perform(an.action(type="picking-up", object=cup, arm="left", grasp="top"))
         show(

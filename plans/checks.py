@@ -22,6 +22,7 @@ from executive import (
     LocationDesignator,
     ManipulationGoalInCollision,
     NavigationGoalInCollision,
+    ObjectInventory,
     ObjectUnreachable,
     Pose,
     ProbeResult,
@@ -189,16 +190,68 @@ def _probe_placing(
     world: ProjectionWorld, args: dict[str, Any], swept: bool | None = None
 ) -> ProbeResult:
     """Probe a placing grounding's reach, put and retract waypoints (the put ones not for
-    collisions: the object touches its support there)."""
+    collisions with the environment: the object touches its support there), then
+    :func:`_probe_putting_among_objects`."""
+    held = object_name(args["object_designator"])
     waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
     checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
     checks += [True] * len(args["retract_poses"])
-    return world.probe_arm_trajectory(
+    result = world.probe_arm_trajectory(
         args["arm"],
         waypoints,
-        allowed_contacts=(object_name(args["object_designator"]),),
+        allowed_contacts=(held,),
         check_collisions=checks,
         swept=swept,
+    )
+    if not result.ok:
+        return result
+    return _probe_putting_among_objects(world, args, held)
+
+
+def _probe_putting_among_objects(
+    world: ProjectionWorld, args: dict[str, Any], held: str
+) -> ProbeResult:
+    """At the put waypoints the robot and the object it holds may touch the environment
+    (the object's support), but no other object: a hand wider than the gap to an object
+    placed before (the Panda's hand is 0.2 m across its fingers) would push it over as it
+    sets the new one down. Probes the reach and put waypoints again with the put ones
+    checked, and fails (``ManipulationGoalInCollision``, ``contacts=`` those with other
+    objects) only where a contact there is with another object of the world model (one
+    that cannot list its objects, :class:`executive.ObjectInventory`, is not asked).
+
+    Deliberate addition: CRAM checked no collision at the put waypoint (the object
+    touches its support there), so neither did v0.8.1's check."""
+    reach, put = args["reach_poses"], args["put_poses"]
+    result = world.probe_arm_trajectory(
+        args["arm"],
+        [*reach, *put],
+        allowed_contacts=(held,),
+        check_collisions=[False] * len(reach) + [True] * len(put),
+        swept=False,
+    )
+    failure = result.failure
+    if result.ok or not isinstance(failure, ManipulationGoalInCollision):
+        return ProbeResult(True)  # IK was proven by the full probe; only contacts matter
+    if not isinstance(world, ObjectInventory):
+        return ProbeResult(True)  # cannot tell objects from the environment: as before
+    details = getattr(failure, "details", None)
+    contacts = details.get("contacts", ()) if isinstance(details, dict) else ()
+    others = set(world.object_names()) - {held}
+    touched = tuple(
+        c for c in contacts if {getattr(c, "body_a", None), getattr(c, "body_b", None)} & others
+    )
+    if not touched:
+        return ProbeResult(True)  # the environment only: the support
+    names = sorted({n for c in touched for n in (c.body_a, c.body_b)} & others)
+    return ProbeResult(
+        False,
+        ManipulationGoalInCollision(
+            f"{args['arm']} arm putting {held} down touches {', '.join(names)}",
+            arm=args["arm"],
+            index=result.index,
+            contacts=touched,
+        ),
+        result.index,
     )
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import pytest
@@ -171,9 +172,10 @@ def test_placing_prefers_a_solution_that_sweeps_through_nothing(cup_world: Any) 
 
     chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 2  # the first swept; the second passed and was taken
+    assert len(calls) == 3  # the first swept; the second passed (and its putting) was taken
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
     assert calls[1] == (chosen["arm"], probed)
+    assert calls[2] == (chosen["arm"], (*chosen["reach_poses"], *chosen["put_poses"]))
 
 
 def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
@@ -191,7 +193,7 @@ def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
     with caplog.at_level(logging.WARNING, logger="plans.checks"):
         chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 3  # 2 swept, then the first one again, its waypoints only
+    assert len(calls) == 4  # 2 swept, then the first one again, its waypoints only (+ putting)
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
     assert calls[2] == calls[0] == (chosen["arm"], probed)
     assert any("every solution sweeps" in r.getMessage() for r in caplog.records)
@@ -210,3 +212,61 @@ def test_placing_does_not_fall_back_past_a_real_collision(cup_world: Any) -> Non
     with pytest.raises(ObjectUnreachable):
         robot.run(check)
     assert len(cup_world.probe_calls["arm"]) == 2  # no second pass
+
+
+@dataclass(frozen=True)
+class _Contact:
+    body_a: str
+    link_a: str
+    body_b: str
+    link_b: str
+
+
+def _putting_touches(*others: str) -> Any:
+    """The putting probe's failure: the hand touches ``others`` at the put waypoint."""
+    from executive import ManipulationGoalInCollision, ProbeResult
+
+    contacts = tuple(_Contact("robot", "hand", other, "object") for other in others)
+    return ProbeResult(False, ManipulationGoalInCollision("touches", contacts=contacts), 2)
+
+
+def test_placing_passes_over_a_put_down_that_touches_another_object(cup_world: Any) -> None:
+    """A hand wider than the gap to an object placed before (the Panda's, 0.2 m across
+    its fingers) would push it over while setting the new one down: the put waypoint's
+    contacts with other objects reject the solution; the next one is taken."""
+    from plans.checks import check_placing_collisions
+
+    robot, placing = _held_cup_placing(cup_world)
+    cup_world.objects["bowl-1"] = cup_world.objects["cup-1"]  # placed before, nearby
+    cup_world.object_names = lambda: sorted(cup_world.objects)  # an ObjectInventory
+    # call 1: the first solution's waypoints pass; call 2: its put-down touches the bowl
+    cup_world.fail_probe["arm"] = {2: _putting_touches("bowl-1")}
+
+    async def check() -> Any:
+        return check_placing_collisions(placing).reference().arguments
+
+    chosen = robot.run(check)
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == 4  # solution 1 and its putting, solution 2 and its putting
+    assert calls[0] != calls[2]  # the second solution was taken
+    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
+    assert calls[2] == (chosen["arm"], probed)
+
+
+def test_placing_lets_the_put_down_touch_the_environment(cup_world: Any) -> None:
+    """The object (or the hand) touching its support at the put waypoint is no reason to
+    refuse: only contacts with other objects are."""
+    from plans.checks import check_placing_collisions
+
+    robot, placing = _held_cup_placing(cup_world)
+    cup_world.object_names = lambda: sorted(cup_world.objects)  # an ObjectInventory
+    cup_world.fail_probe["arm"] = {2: _putting_touches("kitchen")}
+
+    async def check() -> Any:
+        return check_placing_collisions(placing).reference().arguments
+
+    chosen = robot.run(check)
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == 2  # the first solution and its putting: taken
+    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
+    assert calls[0] == (chosen["arm"], probed)
