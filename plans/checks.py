@@ -130,7 +130,12 @@ def check_picking_up_collisions(action: ActionDesignator, retries: int = PICK_CH
     raise ObjectUnreachable(f"no reachable picking-up solution for {action.short()}", object=obj)
 
 
-def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Designator:
+#: Placing solutions :func:`check_placing_collisions` probes beyond the first: each yaw
+#: variant comes straight and from above (:mod:`plans.pick_place`), so twice CRAM's 8.
+PLACE_CHECKS = 16
+
+
+def check_placing_collisions(action: ActionDesignator, retries: int = PLACE_CHECKS) -> Designator:
     """Probe the ``placing`` trajectory: IK for every waypoint; collisions at the reach
     and retract waypoints (v0.8.1; HEAD only logged collisions, a quirk fixed here), the
     put waypoint is IK-only (the object touches its support there). Deliberate deviation

@@ -420,8 +420,9 @@ def test_delivering_counts(cup_world):
     assert counts["deliver-targets"] == 2
     assert counts["relocations"] == 3 * 5
     assert counts["targets"] == 3 * 6 * 2
-    # each placing check probes the 8 placing yaws of a round type (cup)
-    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3 * 8
+    # each placing check probes the 8 placing yaws of a round type (cup), each reached
+    # straight and from above
+    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3 * 8 * 2
 
 
 # --------------------------------------------------------------------- accessing/sealing
