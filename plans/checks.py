@@ -135,7 +135,9 @@ def check_picking_up_collisions(action: ActionDesignator, retries: int = PICK_CH
 PLACE_CHECKS = 16
 
 
-def check_placing_collisions(action: ActionDesignator, retries: int = PLACE_CHECKS) -> Designator:
+def check_placing_collisions(
+    action: ActionDesignator, retries: int = PLACE_CHECKS, *, take_swept: bool = True
+) -> Designator:
     """Probe the ``placing`` trajectory: IK for every waypoint; collisions at the reach
     and retract waypoints (v0.8.1; HEAD only logged collisions, a quirk fixed here), the
     put waypoint is IK-only (the object touches its support there). Deliberate deviation
@@ -152,7 +154,9 @@ def check_placing_collisions(action: ActionDesignator, retries: int = PLACE_CHEC
     solution failed *only* by such a sweep, the first of them is taken anyway (as
     before the sweep check): the cereal's two fixed placing poses among the objects
     placed before it are both swept over, and refusing them would leave the cereal
-    undelivered."""
+    undelivered. ``take_swept=False``: refused instead (``ObjectUnreachable``, logged):
+    the deliver plan first looks for a target or a base pose from which nothing is swept
+    (:data:`plans.deliver.STRICT_STANDS`)."""
     world = _world()
     current: Designator | None = action.current()
     obj: Any = None
@@ -176,6 +180,10 @@ def check_placing_collisions(action: ActionDesignator, retries: int = PLACE_CHEC
             current = current.next_solution()
     except DesignatorError as error:
         raise ObjectUnreachable(str(error), object=obj) from error
+    if swept_only and not take_swept:
+        log.info("placing: every solution sweeps through an object; not taking one here")
+        assert first is not None
+        raise ObjectUnreachable(f"placing: {_failure(first)}", object=obj) from first.failure
     for member in swept_only:
         args = dict(cast(Any, member.reference()).arguments)
         result = _probe_placing(world, args, swept=False)

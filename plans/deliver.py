@@ -148,6 +148,8 @@ async def deliver(
     def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
         return ObjectUndeliverable(object=object_label(object_designator))
 
+    stands = 0  # base poses navigated to so far (the first STRICT_STANDS are strict)
+
     @retry_scope((DesignatorError, ObjectUndeliverable), targets, outer, rethrow=undeliverable)
     async def attempt() -> None:
         target_pose = to_map(targets.current.reference())
@@ -169,6 +171,8 @@ async def deliver(
             rethrow=undeliverable,
         )
         async def from_here() -> None:
+            nonlocal stands
+            stands += 1
             await perform(an.action(type="navigating", location=base_poses.current))
 
             @retry_scope(
@@ -190,7 +194,8 @@ async def deliver(
                 placing = an.action(
                     type="placing", object=object_designator, target=goal, free_yaw=free_yaw
                 )
-                await perform(check_placing_collisions(placing))
+                strict = stands <= STRICT_STANDS
+                await perform(check_placing_collisions(placing, take_swept=not strict))
 
             await place_at_target()
 
@@ -201,6 +206,14 @@ async def deliver(
     await translating_designator_errors(attempt, undeliverable)
     await back_off()
 
+
+#: Base poses from which ``deliver`` refuses a placing whose every solution sweeps the
+#: arm or the held object through an object placed before
+#: (:func:`check_placing_collisions` with ``take_swept=False``): it tries other targets
+#: and base poses first, and takes such a placing (its waypoints clear) only from the
+#: later ones. Deliberate addition: seeds 3, 4 and 6 knocked the cup, the bowl and the
+#: spoon placing the objects after them from the first base pose.
+STRICT_STANDS = 2
 
 #: The failures after which ``deliver`` goes to the next base pose.
 DELIVER_RELOCATION_FAILURES = (
