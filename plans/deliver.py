@@ -352,14 +352,18 @@ async def drop_at_sink(object_designator: ObjectDesignator) -> None:
     ``ObjectDetached``), so no object stays attached after a failed drop. An evaporated
     drop (Ctrl-C) releases nothing: the robot may be anywhere on its way, and the
     caller's cleanup keeps the object held (see ``plans.demo``'s final cleanup; issue 23:
-    releasing it wherever the robot stood dropped it on the floor)."""
+    releasing it wherever the robot stood dropped it on the floor). Deliberate addition:
+    the placing is checked first (:func:`check_placing_collisions`: its yaws, reached
+    straight and from above): CRAM performed the first solution unchecked, and where its
+    reach had no IK the object was released in ``carry``, beside the robot, and leaned
+    against it (the milk, seeds 5, 7 and 9: dragged along by every later drive until it
+    fell to the floor)."""
 
     async def drop() -> None:
         await perform(an.action(type="navigating", location=a.location(pose=SINK_BASE_POSE)))
         target = a.location(pose=_sink_drop_pose(object_designator))
-        await perform(
-            an.action(type="placing", object=object_designator, target=target, free_yaw=True)
-        )
+        placing = an.action(type="placing", object=object_designator, target=target, free_yaw=True)
+        await perform(check_placing_collisions(placing))
 
     await ignoring(drop, (cpl.PlanFailure, DesignatorError))
     await release_held(object_designator)  # not in a finally: never on evaporation

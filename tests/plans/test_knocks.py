@@ -286,3 +286,33 @@ def test_placing_does_not_fall_back_past_a_real_collision(cup_world: Any) -> Non
     with pytest.raises(ObjectUnreachable):
         robot.run(check)
     assert len(cup_world.probe_calls["arm"]) == 4  # no second pass
+
+
+def test_delivering_tries_the_next_target_before_taking_a_swept_placing(
+    cup_world: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Seeds 3, 4 and 6: from the first base poses, a placing whose every solution
+    sweeps through an object placed before is refused (STRICT_STANDS): the next target
+    is tried, and its clear placing is taken; nothing swept is performed."""
+    from conftest import make_robot
+    from test_plans_fake import perceived_cup
+
+    robot = make_robot(cup_world)
+    robot.run(perform, an.action(type="picking-up", object=perceived_cup(cup_world), arm="left"))
+    cup_world.probe_calls["arm"].clear()
+    solutions = 16  # the cup's 8 placing yaws, each straight and from above
+    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in range(1, solutions + 1)}
+    with caplog.at_level(logging.INFO, logger="plans.checks"):
+        robot.run(
+            perform,
+            an.action(
+                type="delivering",
+                object=an.object(name="cup-1", type="cup"),
+                target=a.location(spots=3),
+            ),
+        )
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == solutions + 1  # all of the first target's swept, the next clear
+    assert any("not taking one here" in r.getMessage() for r in caplog.records)
+    assert not any("taking one whose waypoints" in r.getMessage() for r in caplog.records)
+    assert cup_world.attached() == []
