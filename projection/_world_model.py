@@ -255,8 +255,7 @@ class ProjectedWorldModel:
         holds must not touch a free object other than ``allowed_contacts``; else
         :class:`executive.ManipulationGoalInCollision` (``contacts=[...]``), e.g. a cereal
         box put down pressed into the bowl placed before it, or the elbow pressing
-        the bowl as the hand goes down (seed 1 knocked the bowl so, three times), and the
-        path to an unchecked waypoint is checked for sweeps like any other.
+        the bowl as the hand goes down (seed 1 knocked the bowl so, three times).
         Deliberate addition: CRAM checked the waypoints only, and its arm moved between
         them wherever its controller took it; the simulated real arm follows that path
         and topples what it sweeps through. The world is restored. Bad arguments raise
@@ -300,6 +299,10 @@ class ProjectedWorldModel:
                     contacts = [c for c in collisions if not _allowed(c, allowed)]
                     if contacts:
                         return ProbeResult(False, _in_collision(arm, i, contacts), i)
+                    if sweeps:
+                        hits = self._swept(arm, wp, torso, start, allowed)
+                        if hits:
+                            return ProbeResult(False, _swept_into(arm, i, hits), i)
                 else:
                     # exempt from kitchen contacts only (the put of a placing): the robot
                     # and what it holds must not press into a free object other than the
@@ -311,10 +314,6 @@ class ProjectedWorldModel:
                     pressed = [c for c in collisions if c.body_b in free]
                     if pressed:
                         return ProbeResult(False, _in_collision(arm, i, pressed), i)
-                if sweeps:
-                    hits = self._swept(arm, wp, torso, start, allowed)
-                    if hits:
-                        return ProbeResult(False, _swept_into(arm, i, hits), i)
             return ProbeResult(True)
         finally:
             world.restore(snap)
