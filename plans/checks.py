@@ -22,7 +22,6 @@ from executive import (
     LocationDesignator,
     ManipulationGoalInCollision,
     NavigationGoalInCollision,
-    ObjectInventory,
     ObjectUnreachable,
     Pose,
     ProbeResult,
@@ -131,7 +130,14 @@ def check_picking_up_collisions(action: ActionDesignator, retries: int = PICK_CH
     raise ObjectUnreachable(f"no reachable picking-up solution for {action.short()}", object=obj)
 
 
-def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Designator:
+#: Placing solutions :func:`check_placing_collisions` probes beyond the first: each yaw
+#: variant comes straight and from above (:mod:`plans.pick_place`), so twice CRAM's 8.
+PLACE_CHECKS = 16
+
+
+def check_placing_collisions(
+    action: ActionDesignator, retries: int = PLACE_CHECKS, *, take_swept: bool = True
+) -> Designator:
     """Probe the ``placing`` trajectory: IK for every waypoint; collisions at the reach
     and retract waypoints (v0.8.1; HEAD only logged collisions, a quirk fixed here), the
     put waypoint is IK-only (the object touches its support there). Deliberate deviation
@@ -148,7 +154,9 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
     solution failed *only* by such a sweep, the first of them is taken anyway (as
     before the sweep check): the cereal's two fixed placing poses among the objects
     placed before it are both swept over, and refusing them would leave the cereal
-    undelivered."""
+    undelivered. ``take_swept=False``: refused instead (``ObjectUnreachable``, logged):
+    the deliver plan first looks for a target or a base pose from which nothing is swept
+    (:data:`plans.deliver.STRICT_STANDS`)."""
     world = _world()
     current: Designator | None = action.current()
     obj: Any = None
@@ -172,6 +180,10 @@ def check_placing_collisions(action: ActionDesignator, retries: int = 8) -> Desi
             current = current.next_solution()
     except DesignatorError as error:
         raise ObjectUnreachable(str(error), object=obj) from error
+    if swept_only and not take_swept:
+        log.info("placing: every solution sweeps through an object; not taking one here")
+        assert first is not None
+        raise ObjectUnreachable(f"placing: {_failure(first)}", object=obj) from first.failure
     for member in swept_only:
         args = dict(cast(Any, member.reference()).arguments)
         result = _probe_placing(world, args, swept=False)
@@ -190,68 +202,16 @@ def _probe_placing(
     world: ProjectionWorld, args: dict[str, Any], swept: bool | None = None
 ) -> ProbeResult:
     """Probe a placing grounding's reach, put and retract waypoints (the put ones not for
-    collisions with the environment: the object touches its support there), then
-    :func:`_probe_putting_among_objects`."""
-    held = object_name(args["object_designator"])
+    collisions: the object touches its support there)."""
     waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
     checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
     checks += [True] * len(args["retract_poses"])
-    result = world.probe_arm_trajectory(
+    return world.probe_arm_trajectory(
         args["arm"],
         waypoints,
-        allowed_contacts=(held,),
+        allowed_contacts=(object_name(args["object_designator"]),),
         check_collisions=checks,
         swept=swept,
-    )
-    if not result.ok:
-        return result
-    return _probe_putting_among_objects(world, args, held)
-
-
-def _probe_putting_among_objects(
-    world: ProjectionWorld, args: dict[str, Any], held: str
-) -> ProbeResult:
-    """At the put waypoints the robot and the object it holds may touch the environment
-    (the object's support), but no other object: a hand wider than the gap to an object
-    placed before (the Panda's hand is 0.2 m across its fingers) would push it over as it
-    sets the new one down. Probes the reach and put waypoints again with the put ones
-    checked, and fails (``ManipulationGoalInCollision``, ``contacts=`` those with other
-    objects) only where a contact there is with another object of the world model (one
-    that cannot list its objects, :class:`executive.ObjectInventory`, is not asked).
-
-    Deliberate addition: CRAM checked no collision at the put waypoint (the object
-    touches its support there), so neither did v0.8.1's check."""
-    reach, put = args["reach_poses"], args["put_poses"]
-    result = world.probe_arm_trajectory(
-        args["arm"],
-        [*reach, *put],
-        allowed_contacts=(held,),
-        check_collisions=[False] * len(reach) + [True] * len(put),
-        swept=False,
-    )
-    failure = result.failure
-    if result.ok or not isinstance(failure, ManipulationGoalInCollision):
-        return ProbeResult(True)  # IK was proven by the full probe; only contacts matter
-    if not isinstance(world, ObjectInventory):
-        return ProbeResult(True)  # cannot tell objects from the environment: as before
-    details = getattr(failure, "details", None)
-    contacts = details.get("contacts", ()) if isinstance(details, dict) else ()
-    others = set(world.object_names()) - {held}
-    touched = tuple(
-        c for c in contacts if {getattr(c, "body_a", None), getattr(c, "body_b", None)} & others
-    )
-    if not touched:
-        return ProbeResult(True)  # the environment only: the support
-    names = sorted({n for c in touched for n in (c.body_a, c.body_b)} & others)
-    return ProbeResult(
-        False,
-        ManipulationGoalInCollision(
-            f"{args['arm']} arm putting {held} down touches {', '.join(names)}",
-            arm=args["arm"],
-            index=result.index,
-            contacts=touched,
-        ),
-        result.index,
     )
 
 

@@ -60,7 +60,6 @@ from ._common import (
     translating_designator_errors,
 )
 from ._designators import _check_places, _given_arm, _object, default_of, learned_base, robot_name
-from .atomic import park_arms
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
 from .search import arms_out_of_view, search_for_object
@@ -130,7 +129,9 @@ async def fetch(
     -> ``object-unreachable``): detect, check the picking-up solutions
     (:func:`check_picking_up_collisions`, 60) and pick up.
     Raises ``ObjectUnfetchable`` when relocations run out (and for designator errors).
-    Parks the arms and returns the newest object designator."""
+    Backs off, parks the arms (:func:`plans.navigation.park_clear`: stepping away or
+    one arm at a time where the park would sweep a neighbour) and returns the newest
+    object designator."""
 
     def unfetchable(_failure: BaseException | None = None) -> ObjectUnfetchable:
         return ObjectUnfetchable(object=object_label(object_designator))
@@ -186,7 +187,7 @@ async def fetch(
 
         await from_here()
         await back_off()
-        await park_arms()
+        await park_clear()
         return object_designator.current()
 
     try:

@@ -54,6 +54,7 @@ from ._common import (
     CountedRetries,
     base_frame,
     perform_ignoring,
+    tally,
     the_base,
     the_robot,
     to_base,
@@ -264,17 +265,18 @@ BACK_OFF = 0.25
 
 
 @cpl.plan(name="back-off")
-async def back_off(distance: float = BACK_OFF) -> bool:
+async def back_off(distance: float = BACK_OFF, sideways: float = 0.0) -> bool:
     """Retreat before parking the arms next to a counter: drive the base ``distance``
     straight back if the belief's probe says the robot (with what it holds) stands free
     there; the going's failures are ignored (logged: the arms are parked wherever the
     base stopped). Deliberate addition: CRAM parked (``carry``) right where it had picked
     or placed, and the park swept the arm and the held object through the neighbours on
     the counter (the cereal box toppled off the sink counter, a delivered cup off the
-    island). Returns whether it drove (False: the belief says the robot cannot stand
+    island). ``sideways``: also that far to the base's left (negative: right), the same
+    orientation. Returns whether it drove (False: the belief says the robot cannot stand
     there)."""
     world = current_environment().world
-    goal = to_map(Pose((-distance, 0.0, 0.0), frame=base_frame()))
+    goal = to_map(Pose((-distance, sideways, 0.0), frame=base_frame()))
     probe = world.probe_base_pose(goal)
     if not probe.ok:
         log.info("no backing off: %s", probe.failure)
@@ -289,30 +291,73 @@ async def back_off(distance: float = BACK_OFF) -> bool:
 #: How often :func:`park_clear` backs off while the park from where the base stands
 #: would sweep through an object or end inside the kitchen.
 PARK_BACK_OFFS = 2
+#: Where :func:`park_clear` steps to before a park that would sweep (m, the base frame:
+#: back, left), the first the belief says the robot stands free at: straight back, back
+#: and to either side (a counter or the island right behind the robot), a short step back.
+PARK_STEPS = ((BACK_OFF, 0.0), (BACK_OFF, 0.2), (BACK_OFF, -0.2), (0.1, 0.0))
+
+
+async def _step_away() -> bool:
+    """Back off to the first of :data:`PARK_STEPS` the belief says is free; whether the
+    base drove."""
+    for back, left in PARK_STEPS:
+        if await back_off(back, left):
+            return True
+    return False
 
 
 async def park_clear(configuration: str = "carry") -> None:
-    """Park both arms (:func:`plans.atomic.park_arms`), backing the base off first
-    (:func:`back_off`) when the belief says the park from here would sweep the arms (or
-    what they hold) through an object: the world model's ``probe_arm_configuration``
-    checks the path the arm controller will take. A world model without that probe (a
-    test double) is not asked. Deliberate addition: CRAM parked wherever the robot stood
-    (after a failed grip, before driving off), and from next to a counter the park swept
-    the neighbours off it (a cup knocked to the floor by a regrasp's park). The probe also
-    fails where the arms would end inside the kitchen (the carry configuration next to a
-    drawer the robot has just opened); up to :data:`PARK_BACK_OFFS` back-offs, each
-    re-probed; the park then happens wherever the base is (logged above)."""
+    """Park the arms (:func:`plans.atomic.park_arms`) without sweeping them, or what they
+    hold, through an object, as far as the belief can tell: the world model's
+    ``probe_arm_configuration`` checks the path the arm controller will take (and fails
+    where the arms would end inside the kitchen, e.g. the carry configuration next to a
+    drawer the robot has just opened). A world model without that probe (a test double)
+    is not asked. Where the park from here would sweep:
+
+    1. the base steps away first (:func:`_step_away`: back, back and aside, a short step
+       back; each probed), up to :data:`PARK_BACK_OFFS` times, re-probed after each;
+    2. still blocked: the arms park **one at a time**, those whose own park is clear
+       first (the other arm then stands still, and an arm that would sweep alongside
+       it often does not alone: both arms from a counter where the robot could not
+       back off swept the milk to the floor, seed 2); an arm whose own park still
+       sweeps parks last anyway (logged, counted ``park-sweeps``): the robot has to
+       carry.
+
+    Deliberate addition: CRAM parked wherever the robot stood (after a pick-up, a failed
+    grip, before driving off), both arms at once, and from next to a counter the park
+    swept the neighbours off it."""
     world = current_environment().world
-    if isinstance(world, ArmSweepProbe):
-        robot = the_robot()
-        joints = {arm.name: arm.state(configuration) for arm in robot.arms}
-        for _ in range(PARK_BACK_OFFS):
-            result = world.probe_arm_configuration(
-                left=joints.get("left"), right=joints.get("right")
-            )
-            if result.ok:
-                break
-            log.info("backing off before parking: %s", result.failure)
-            if not await back_off():
-                break
-    await park_arms(configuration)
+    if not isinstance(world, ArmSweepProbe):
+        await park_arms(configuration)
+        return
+    joints = {arm.name: arm.state(configuration) for arm in the_robot().arms}
+    result = world.probe_arm_configuration(left=joints.get("left"), right=joints.get("right"))
+    for _ in range(PARK_BACK_OFFS):
+        if result.ok:
+            break
+        log.info("stepping away before parking: %s", result.failure)
+        if not await _step_away():
+            break
+        result = world.probe_arm_configuration(left=joints.get("left"), right=joints.get("right"))
+    if result.ok or len(joints) == 1:
+        if not result.ok:
+            log.warning("parking although it sweeps: %s", result.failure)
+            tally("park-sweeps")
+        await park_arms(configuration)
+        return
+    waiting = list(joints)
+    while waiting:
+        clear = [
+            arm
+            for arm in waiting
+            if world.probe_arm_configuration(**{arm: joints[arm]}).ok  # type: ignore[arg-type]
+        ]
+        if clear:
+            arm = clear[0]
+        else:
+            arm = waiting[0]
+            log.warning("parking the %s arm although it sweeps (no clear park left)", arm)
+            tally("park-sweeps")
+        log.info("parking the %s arm alone", arm)
+        await perform(an.action(type="positioning-arm", **{f"{arm}_configuration": configuration}))
+        waiting.remove(arm)

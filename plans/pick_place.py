@@ -34,7 +34,12 @@ yaw turned by pi/2, -pi/2 and pi (and by +-pi/4, +-3pi/4 for round types); an ex
 target orientation is kept as given, followed by its yaw + pi variant (the same footprint
 for the box-shaped objects with fixed poses, e.g. the cereal). These variants are further
 solutions of the grounding, target-major; :func:`plans.checks.check_placing_collisions`
-probes them in order.
+probes them in order. Each target's variants come reached straight (from the lift pose
+above the target, where the arm carries the object), then all again from
+:data:`PLACE_APPROACH_HEIGHT` above that: deliberate addition (CRAM reached straight), the hand
+comes in over the objects placed before and descends, where the straight reach would
+sweep the held object or the arm through one (seed 3's spoon reached through the cup,
+the cereal through the spoon).
 
 Both claim the arm and the gripper they use for their whole duration
 (:func:`executive.register_resources`): a concurrent goal on that hand from outside the
@@ -278,9 +283,12 @@ def _object_transform(obj: ObjectDesignator, d: Designator) -> Transform:
 
 #: How high (m) above its first reach waypoint an approach from above starts.
 APPROACH_HEIGHT = 0.2
+#: The same for a placing, whose first reach waypoint (the lift pose above the target)
+#: is already high: 0.2 m more is out of the arm's reach over the island.
+PLACE_APPROACH_HEIGHT = 0.1
 
 
-def _approaches(reach: Sequence[Pose]) -> list[tuple[Pose, ...]]:
+def _approaches(reach: Sequence[Pose], height: float = APPROACH_HEIGHT) -> list[tuple[Pose, ...]]:
     """The reach waypoints as given, then the same preceded by a waypoint
     :data:`APPROACH_HEIGHT` straight above the first (same orientation): the hand comes
     in over the neighbours and descends onto the reach, instead of sweeping straight
@@ -291,7 +299,7 @@ def _approaches(reach: Sequence[Pose]) -> list[tuple[Pose, ...]]:
     solution of the same arm and grasp."""
     first = reach[0]
     above = Pose(
-        (first.position[0], first.position[1], first.position[2] + APPROACH_HEIGHT),
+        (first.position[0], first.position[1], first.position[2] + height),
         first.orientation,
         first.frame,
     )
@@ -534,8 +542,9 @@ def placing_waypoints(
         performs=("reaching", "putting", "releasing", "retracting"),
         note="DesignatorError if the robot holds no such object. The reach failure "
         "propagates; putting, releasing and retracting failures are ignored. Solutions: "
-        "each target solution, then its yaw variants; plans.check_placing_collisions(action) "
-        "probes them (delivering does).",
+        "each target solution: its yaw variants reached straight, then the same reached "
+        "from 0.1 m above; plans.check_placing_collisions(action) probes them (delivering "
+        "does).",
     ),
 )
 def _placing(d: Designator) -> Iterator[Any]:
@@ -571,22 +580,27 @@ def _placing(d: Designator) -> Iterator[Any]:
             raise DesignatorError(f"{d.short()}: target must be a location or a pose", d)
         held_pose = world.object_pose(name, base)
         for target_pose in targets:
+            solutions = []
             for variant in _yaw_variants(otype, to_base(target_pose), held_pose, free_yaw):
                 grasp_name, poses = placing_waypoints(
                     otype, object_t_tool, variant, standard_to_tool
                 )
                 poses.reverse()
-                yield (
-                    place,
-                    {
-                        "object_designator": obj,
-                        "arm": arm,
-                        "reach_poses": tuple(poses[:2]),
-                        "put_poses": (poses[2],),
-                        "retract_poses": tuple(poses[3:]),
-                        "grasp": grasp_name,
-                    },
-                )
+                solutions.append((grasp_name, poses))
+            # every yaw reached straight, then every yaw from above (_approaches)
+            for approach in range(2):
+                for grasp_name, poses in solutions:
+                    yield (
+                        place,
+                        {
+                            "object_designator": obj,
+                            "arm": arm,
+                            "reach_poses": _approaches(poses[:2], PLACE_APPROACH_HEIGHT)[approach],
+                            "put_poses": (poses[2],),
+                            "retract_poses": tuple(poses[3:]),
+                            "grasp": grasp_name,
+                        },
+                    )
 
 
 register_resources(place, hand_of)

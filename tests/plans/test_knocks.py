@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import pytest
@@ -103,17 +102,68 @@ def test_a_park_that_would_sweep_through_an_object_backs_off_first(cup_world: An
     assert park.reference().arguments["right"] == PR2.arm("right").state("carry")
 
 
-def test_a_park_that_stays_blocked_backs_off_at_most_twice_then_parks(cup_world: Any) -> None:
+def test_a_park_that_stays_blocked_backs_off_at_most_twice_then_parks_arm_by_arm(
+    cup_world: Any, caplog: pytest.LogCaptureFixture
+) -> None:
     from conftest import make_robot
 
     from plans.navigation import PARK_BACK_OFFS, park_clear
 
     robot = make_robot(cup_world)
     calls = _scripted_park_probe(cup_world, ok=False)
-    robot.run(park_clear)
-    assert PARK_BACK_OFFS == 2 and len(calls) == PARK_BACK_OFFS
+    with caplog.at_level(logging.WARNING, logger="plans.navigation"):
+        robot.run(park_clear)
+    both = [c for c in calls if len(c) == 2]
+    assert PARK_BACK_OFFS == 2 and len(both) == PARK_BACK_OFFS + 1  # re-probed after each
     assert len(robot.calls("navigation")) == PARK_BACK_OFFS
-    assert len(robot.calls("arms")) == 1
+    # still blocked: one arm at a time (each probed alone), parked anyway, logged
+    parks = [p.reference().arguments for p in robot.calls("arms")]
+    assert [sorted(a for a in ("left", "right") if p[a]) for p in parks] == [["right"], ["left"]]
+    assert sum("although it sweeps" in r.getMessage() for r in caplog.records) == 2
+
+
+def _park_clear_for_one_arm_alone(world: Any, robot: Any) -> list[dict[str, Any]]:
+    """Both arms together sweep, and so does the left arm alone until the right one is
+    parked (an arm moved); the right arm alone is clear."""
+    from executive import ManipulationGoalInCollision, ProbeResult
+
+    calls: list[dict[str, Any]] = []
+
+    def probe(**kw: Any) -> ProbeResult:
+        calls.append(kw)
+        right_parked = bool(robot.calls("arms"))
+        if list(kw) == ["right"] or (list(kw) == ["left"] and right_parked):
+            return ProbeResult(True)
+        return ProbeResult(False, ManipulationGoalInCollision("sweeps through milk-1"))
+
+    world.probe_arm_configuration = probe
+    return calls
+
+
+def test_a_park_blocked_for_both_arms_parks_the_clear_arm_first(
+    cup_world: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Seed 2: no backing off from the sink (the robot would collide behind), and both
+    arms at once swept the milk off the counter; the right arm alone is clear, and with
+    it parked the left one is too."""
+    from conftest import make_robot
+
+    from executive import NavigationGoalInCollision, ProbeResult
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    calls = _park_clear_for_one_arm_alone(cup_world, robot)
+    cup_world.probe_base_pose = lambda pose: ProbeResult(
+        False, NavigationGoalInCollision("behind: the island")
+    )
+    with caplog.at_level(logging.WARNING, logger="plans.navigation"):
+        robot.run(park_clear)
+    assert robot.calls("navigation") == []  # nowhere to back off to
+    parks = [p.reference().arguments for p in robot.calls("arms")]
+    assert parks[0]["right"] == PR2.arm("right").state("carry") and not parks[0]["left"]
+    assert parks[1]["left"] == PR2.arm("left").state("carry") and not parks[1]["right"]
+    assert [sorted(c) for c in calls] == [["left", "right"], ["right"], ["left"], ["left"]]
+    assert not any("although it sweeps" in r.getMessage() for r in caplog.records)
 
 
 def test_a_clear_park_parks_where_the_robot_stands(cup_world: Any) -> None:
@@ -172,10 +222,9 @@ def test_placing_prefers_a_solution_that_sweeps_through_nothing(cup_world: Any) 
 
     chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 3  # the first swept; the second passed (and its putting) was taken
+    assert len(calls) == 2  # the first swept; the second passed and was taken
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
     assert calls[1] == (chosen["arm"], probed)
-    assert calls[2] == (chosen["arm"], (*chosen["reach_poses"], *chosen["put_poses"]))
 
 
 def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
@@ -184,8 +233,9 @@ def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
     from plans.checks import check_placing_collisions
 
     robot, placing = _held_cup_placing(cup_world)
-    # both solutions of a target pose (it and its yaw + pi) sweep
-    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in (1, 2)}
+    # all four solutions of a target pose (it and its yaw + pi, each reached straight
+    # and from above) sweep
+    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in (1, 2, 3, 4)}
 
     async def check() -> Any:
         return check_placing_collisions(placing).reference().arguments
@@ -193,10 +243,33 @@ def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
     with caplog.at_level(logging.WARNING, logger="plans.checks"):
         chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 4  # 2 swept, then the first one again, its waypoints only (+ putting)
+    assert len(calls) == 5  # 4 swept, then the first one again, its waypoints only
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
-    assert calls[2] == calls[0] == (chosen["arm"], probed)
+    assert calls[4] == calls[0] == (chosen["arm"], probed)
     assert any("every solution sweeps" in r.getMessage() for r in caplog.records)
+
+
+def test_placing_reaches_from_above_when_both_straight_reaches_sweep(cup_world: Any) -> None:
+    """Seed 3: the straight reaches of the spoon's and the cereal's placings swept through
+    the objects placed before; the same target and yaw reached from 0.1 m above is the
+    next solution (after the yaw + pi variant), not the swept one taken anyway."""
+    from plans.checks import check_placing_collisions
+    from plans.pick_place import PLACE_APPROACH_HEIGHT
+
+    robot, placing = _held_cup_placing(cup_world)
+    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in (1, 2)}
+
+    async def check() -> Any:
+        return check_placing_collisions(placing).reference().arguments
+
+    chosen = robot.run(check)
+    calls = cup_world.probe_calls["arm"]
+    assert len(calls) == 3
+    first_reach = calls[0][1][:2]
+    above, *rest = chosen["reach_poses"]
+    assert tuple(rest) == first_reach  # the first solution's reach, from above
+    assert above.position[2] == pytest.approx(first_reach[0].position[2] + PLACE_APPROACH_HEIGHT)
+    assert above.position[:2] == pytest.approx(first_reach[0].position[:2])
 
 
 def test_placing_does_not_fall_back_past_a_real_collision(cup_world: Any) -> None:
@@ -204,69 +277,42 @@ def test_placing_does_not_fall_back_past_a_real_collision(cup_world: Any) -> Non
     from plans.checks import check_placing_collisions
 
     robot, placing = _held_cup_placing(cup_world)
-    cup_world.fail_probe["arm"] = {n: True for n in (1, 2)}  # unreachable, not swept
+    # all four solutions unreachable, not swept
+    cup_world.fail_probe["arm"] = {n: True for n in (1, 2, 3, 4)}
 
     async def check() -> Any:
         return check_placing_collisions(placing)
 
     with pytest.raises(ObjectUnreachable):
         robot.run(check)
-    assert len(cup_world.probe_calls["arm"]) == 2  # no second pass
+    assert len(cup_world.probe_calls["arm"]) == 4  # no second pass
 
 
-@dataclass(frozen=True)
-class _Contact:
-    body_a: str
-    link_a: str
-    body_b: str
-    link_b: str
+def test_delivering_tries_the_next_target_before_taking_a_swept_placing(
+    cup_world: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Seeds 3, 4 and 6: from the first base poses, a placing whose every solution
+    sweeps through an object placed before is refused (STRICT_STANDS): the next target
+    is tried, and its clear placing is taken; nothing swept is performed."""
+    from conftest import make_robot
+    from test_plans_fake import perceived_cup
 
-
-def _putting_touches(*others: str) -> Any:
-    """The putting probe's failure: the hand touches ``others`` at the put waypoint."""
-    from executive import ManipulationGoalInCollision, ProbeResult
-
-    contacts = tuple(_Contact("robot", "hand", other, "object") for other in others)
-    return ProbeResult(False, ManipulationGoalInCollision("touches", contacts=contacts), 2)
-
-
-def test_placing_passes_over_a_put_down_that_touches_another_object(cup_world: Any) -> None:
-    """A hand wider than the gap to an object placed before (the Panda's, 0.2 m across
-    its fingers) would push it over while setting the new one down: the put waypoint's
-    contacts with other objects reject the solution; the next one is taken."""
-    from plans.checks import check_placing_collisions
-
-    robot, placing = _held_cup_placing(cup_world)
-    cup_world.objects["bowl-1"] = cup_world.objects["cup-1"]  # placed before, nearby
-    cup_world.object_names = lambda: sorted(cup_world.objects)  # an ObjectInventory
-    # call 1: the first solution's waypoints pass; call 2: its put-down touches the bowl
-    cup_world.fail_probe["arm"] = {2: _putting_touches("bowl-1")}
-
-    async def check() -> Any:
-        return check_placing_collisions(placing).reference().arguments
-
-    chosen = robot.run(check)
+    robot = make_robot(cup_world)
+    robot.run(perform, an.action(type="picking-up", object=perceived_cup(cup_world), arm="left"))
+    cup_world.probe_calls["arm"].clear()
+    solutions = 16  # the cup's 8 placing yaws, each straight and from above
+    cup_world.fail_probe["arm"] = {n: _swept_failure() for n in range(1, solutions + 1)}
+    with caplog.at_level(logging.INFO, logger="plans.checks"):
+        robot.run(
+            perform,
+            an.action(
+                type="delivering",
+                object=an.object(name="cup-1", type="cup"),
+                target=a.location(spots=3),
+            ),
+        )
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 4  # solution 1 and its putting, solution 2 and its putting
-    assert calls[0] != calls[2]  # the second solution was taken
-    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
-    assert calls[2] == (chosen["arm"], probed)
-
-
-def test_placing_lets_the_put_down_touch_the_environment(cup_world: Any) -> None:
-    """The object (or the hand) touching its support at the put waypoint is no reason to
-    refuse: only contacts with other objects are."""
-    from plans.checks import check_placing_collisions
-
-    robot, placing = _held_cup_placing(cup_world)
-    cup_world.object_names = lambda: sorted(cup_world.objects)  # an ObjectInventory
-    cup_world.fail_probe["arm"] = {2: _putting_touches("kitchen")}
-
-    async def check() -> Any:
-        return check_placing_collisions(placing).reference().arguments
-
-    chosen = robot.run(check)
-    calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 2  # the first solution and its putting: taken
-    probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
-    assert calls[0] == (chosen["arm"], probed)
+    assert len(calls) == solutions + 1  # all of the first target's swept, the next clear
+    assert any("not taking one here" in r.getMessage() for r in caplog.records)
+    assert not any("taking one whose waypoints" in r.getMessage() for r in caplog.records)
+    assert cup_world.attached() == []

@@ -420,8 +420,9 @@ def test_delivering_counts(cup_world):
     assert counts["deliver-targets"] == 2
     assert counts["relocations"] == 3 * 5
     assert counts["targets"] == 3 * 6 * 2
-    # each placing check probes the 8 placing yaws of a round type (cup)
-    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3 * 8
+    # each placing check probes the 8 placing yaws of a round type (cup), each reached
+    # straight and from above
+    assert len(cup_world.probe_calls["arm"]) == 3 * 6 * 3 * 8 * 2
 
 
 # --------------------------------------------------------------------- accessing/sealing
@@ -527,3 +528,27 @@ def test_transport_drops_at_the_sink_when_undeliverable(cup_world):
     )
     assert result is None and cup_world.attached() == []
     assert cup_world.robot_pose().isclose(Pose((0.7, -0.2, 0.0)))
+
+
+def test_dropping_at_the_sink_checks_its_placing_first(cup_world):
+    """Seeds 5, 7 and 9: the drop's first placing solution had no IK, and the milk,
+    released in ``carry`` beside the robot, leaned against it and was dragged along by
+    every later drive. The drop's placing is probed like a delivery's: the first
+    solution is unreachable, the next one is performed."""
+    from plans.deliver import drop_at_sink
+
+    robot = holding_cup(cup_world)
+    before = len(robot.calls("arms"))
+    cup_world.probe_calls["arm"].clear()
+    cup_world.fail_probe["arm"] = {1: True}
+    robot.run(drop_at_sink, an.object(name="cup-1", type="cup"))
+    probes = cup_world.probe_calls["arm"]
+    assert len(probes) == 2
+    moved = [
+        m.reference().arguments["left"]
+        for m in robot.calls("arms")[before:]
+        if m.type == "moving-tcp"
+    ]
+    assert any(p.isclose(probes[1][1][0]) for p in moved)  # the second solution's reach
+    assert not any(p.isclose(probes[0][1][0]) for p in moved)  # not the unreachable one
+    assert cup_world.attached() == []

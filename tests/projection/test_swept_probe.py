@@ -168,3 +168,45 @@ def test_the_rejected_park_really_pushes_the_object(pair: tuple[World, World]) -
 
     cpl.run(main, clock=MockClock())
     assert math.dist(true.object_pose(CUP).position, start.position) > 0.01
+
+
+# ------------------------------------------------ putting down against a neighbour (issue 26)
+def _holding_the_cup(belief: World) -> None:
+    """The right hand holds the cup by its back grasp, lifted, from ``SINK_NAV``."""
+    belief.drive(SINK_NAV)
+    poses = _back_grasp(belief)
+    for pose in poses[:3]:
+        belief.move_tcp(right=pose)
+    belief.attach(CUP, PR2.arm("right").hand_link)
+    belief.move_tcp(right=poses[3])
+
+
+def _put_down_at(y: float) -> list[Pose]:
+    """Above, then down at a spot of the sink counter ``y`` to the robot's left (the
+    tool's pose: the cup stands 2 cm in front of it)."""
+    return [
+        Pose((0.67, y, 1.081), frame="base_footprint"),
+        Pose((0.67, y, 0.931), frame="base_footprint"),
+    ]
+
+
+def test_putting_down_pressed_into_a_neighbour_is_rejected(pair: tuple[World, World]) -> None:
+    """The put waypoint is not checked for collisions (the object touches its support
+    there), but the cup it presses into the bowl (seed 1's cereal against the bowl,
+    knocked three times) is a collision all the same: the probe names the bowl."""
+    _true, belief = pair
+    _holding_the_cup(belief)
+    before = _state(belief)
+    world = ProjectedWorldModel(belief)
+    # 9 cm beside the bowl's centre: the cup's side presses into the bowl's rim
+    result = world.probe_arm_trajectory(
+        "right", _put_down_at(0.19), allowed_contacts=[CUP], check_collisions=[True, False]
+    )
+    assert not result.ok and result.index == 1
+    assert isinstance(result.failure, ManipulationGoalInCollision)
+    assert "touches bowl-1" in str(result.failure)
+    assert _state(belief) == before
+    # 3 cm farther away the same put down is clear
+    assert world.probe_arm_trajectory(
+        "right", _put_down_at(0.22), allowed_contacts=[CUP], check_collisions=[True, False]
+    ).ok
