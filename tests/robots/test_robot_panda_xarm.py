@@ -16,18 +16,14 @@ from PIL import Image
 from aiocram.cli import main
 from aiocram.robot_check import RobotCheckFailed, check_robot
 from executive import (
-    ArmDescription,
-    CameraDescription,
     GripperDescription,
     KinematicTree,
-    NeckDescription,
-    Reach,
-    RobotDescription,
     RobotDescriptionError,
-    TorsoDescription,
 )
 from projection import kinematic_tree, load_robot
-from robots import mobile_base, panda
+from robots import panda
+from tests.xarm_robot import GRIPPER as XARM_GRIPPER
+from tests.xarm_robot import xarm_description
 
 PANDA = panda.DESCRIPTION
 
@@ -157,63 +153,10 @@ def test_the_panda_collision_shapes_are_convex_meshes(client: int) -> None:
 
 
 # ------------------------------------------------------------------------ a third robot
-XARM = Path(pybullet_data.getDataPath()) / "xarm" / "xarm6_with_gripper.urdf"
-XARM_GRIPPER = (
-    "drive_joint",
-    "left_finger_joint",
-    "left_inner_knuckle_joint",
-    "right_outer_knuckle_joint",
-    "right_finger_joint",
-    "right_inner_knuckle_joint",
-)
-
-
-def _xarm_urdf(tmp: Path) -> Path:
-    """What a user does: their arm on the mobile base, plus the tool frame the shipped URDF
-    lacks (0.16 m ahead of the gripper base, between the finger pads)."""
-    tcp = ET.Element("link", name="xarm_tcp")
-    joint = ET.Element("joint", name="xarm_tcp_joint", type="fixed")
-    ET.SubElement(joint, "origin", xyz="0 0 0.16", rpy="0 0 0")
-    ET.SubElement(joint, "parent", link="xarm_gripper_base_link")
-    ET.SubElement(joint, "child", link="xarm_tcp")
-    path = tmp / "xarm6.urdf"
-    path.write_text(mobile_base.mount_arm("xarm6", XARM, "world", (tcp, joint)))
-    return path
-
-
-def _xarm(tmp: Path, **arm_changes: object) -> RobotDescription:
-    path = _xarm_urdf(tmp)
-    fields: dict[str, object] = {
-        "name": "left",
-        "joints": tuple(f"joint{i}" for i in range(1, 7)),
-        "tool_frame": "xarm_tcp",
-        "hand_link": "xarm_gripper_base_link",
-        "standard_to_tool": ((0.0, 1.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
-        "gripper": GripperDescription(XARM_GRIPPER, 0.085, 0.0, 0.85, 50.0),
-        "reach": Reach(0.75, 0.2),
-        "states": {
-            "park": (0.0, -0.5, -0.8, 0.0, 1.3, 0.0),
-            "carry": (0.0, -0.3, -1.0, 0.0, 1.3, 0.0),
-        },
-    }
-    fields.update(arm_changes)
-    return RobotDescription(
-        name="xarm6",
-        urdf=lambda: path,
-        base_frame="base_footprint",
-        base_link="base_link",
-        arms=(ArmDescription(**fields),),  # type: ignore[arg-type]
-        torso=TorsoDescription(mobile_base.TORSO_JOINT, *mobile_base.TORSO_RANGE, default=0.2),
-        neck=NeckDescription(
-            *mobile_base.NECK_JOINTS,
-            camera=CameraDescription(mobile_base.CAMERA_FRAME, math.radians(45), math.radians(60)),
-            states={"forward": (0.0, 0.0)},
-        ),
-    )
 
 
 def test_a_third_robot_from_another_shipped_urdf(tmp_path: Path, client: int) -> None:
-    xarm = _xarm(tmp_path)
+    xarm = xarm_description(tmp_path)
     robot = load_robot(xarm, client)
     (arm,) = xarm.arms
     assert len(arm.joints) == 6 and len(arm.gripper.joints) == 6
@@ -230,10 +173,10 @@ def test_a_third_robot_from_another_shipped_urdf(tmp_path: Path, client: int) ->
 def test_the_third_robots_errors(tmp_path: Path, client: int) -> None:
     six = ("joint1", "joint2", "joint3", "joint4", "joint5", "joint7")
     with pytest.raises(RobotDescriptionError) as info:
-        load_robot(_xarm(tmp_path, joints=six), client)
+        load_robot(xarm_description(tmp_path, joints=six), client)
     assert info.value.field == "arms['left'].joints[5]" and "no joint 'joint7'" in str(info.value)
     with pytest.raises(RobotDescriptionError) as info:
-        load_robot(_xarm(tmp_path, tool_frame="link5"), client)
+        load_robot(xarm_description(tmp_path, tool_frame="link5"), client)
     assert info.value.field == "arms['left'].tool_frame"
     assert "not rigidly attached" in str(info.value)
     assert pb.getNumBodies(physicsClientId=client) == 0
@@ -241,7 +184,9 @@ def test_the_third_robots_errors(tmp_path: Path, client: int) -> None:
 
 def test_a_check_that_fails_says_so(tmp_path: Path) -> None:
     # an opening whose joint values close the gripper as it "opens"
-    xarm = _xarm(tmp_path, gripper=GripperDescription(XARM_GRIPPER, 0.085, 0.85, 0.0, 50.0))
+    xarm = xarm_description(
+        tmp_path, gripper=GripperDescription(XARM_GRIPPER, 0.085, 0.85, 0.0, 50.0)
+    )
     with pytest.raises(RobotCheckFailed, match="does not move its fingers apart"):
         check_robot(xarm, None, lambda line: None)
 

@@ -8,32 +8,24 @@ assertions read the true PyBullet world, so nothing here can pass by a plan's sa
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pybullet_data
 import pytest
 
 import plans
 from executive import (
-    ArmDescription,
-    CameraDescription,
-    GripperDescription,
-    NeckDescription,
     Pose,
-    Reach,
     RobotDescription,
-    TorsoDescription,
     a,
     an,
     perform,
 )
 from executive.events import ObjectAttached, ObjectDetached
 from projection import World, with_projected_robot
-from robots import mobile_base
+from tests.xarm_robot import xarm_description
 
 CUP = (1.3, 0.6, 0.9)  # the demo's cup on the sink counter (its origin 5 cm over the top)
 BOWL = (1.35, 0.15, 0.9)  # a neighbour on the same counter, which must not move
@@ -41,68 +33,6 @@ SPOON = (1.4, 0.95, 0.87)
 MILK = Pose((1.44, 0.4, 0.95))  # where the demo's scene puts the milk (seed 1)
 ISLAND = "kitchen_island_surface"
 TARGET = Pose((-0.8, 1.0, 0.9))  # on the island (its top at 0.85 m), clear of its edges
-
-
-def xarm_description(directory: Path) -> RobotDescription:
-    """docs/robots.md's xArm6, built as the page builds it (a TCP link 0.16 m ahead of the
-    gripper base, the arm mounted on :mod:`robots.mobile_base`), the URDF written into
-    ``directory``."""
-    shipped = Path(pybullet_data.getDataPath()) / "xarm" / "xarm6_with_gripper.urdf"
-    tcp = ET.Element("link", name="xarm_tcp")
-    tcp_joint = ET.Element("joint", name="xarm_tcp_joint", type="fixed")
-    ET.SubElement(tcp_joint, "origin", xyz="0 0 0.16", rpy="0 0 0")
-    ET.SubElement(tcp_joint, "parent", link="xarm_gripper_base_link")
-    ET.SubElement(tcp_joint, "child", link="xarm_tcp")
-    urdf = directory / "xarm6.urdf"
-    urdf.write_text(mobile_base.mount_arm("xarm6", shipped, "world", (tcp, tcp_joint)))
-    return RobotDescription(
-        name="xarm6",
-        urdf=lambda: urdf,
-        base_frame="base_footprint",
-        base_link="base_link",
-        arms=(
-            ArmDescription(
-                name="left",
-                joints=("joint1", "joint2", "joint3", "joint4", "joint5", "joint6"),
-                tool_frame="xarm_tcp",
-                hand_link="xarm_gripper_base_link",
-                standard_to_tool=((0.0, 1.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
-                gripper=GripperDescription(
-                    joints=(
-                        "drive_joint",
-                        "left_finger_joint",
-                        "left_inner_knuckle_joint",
-                        "right_outer_knuckle_joint",
-                        "right_finger_joint",
-                        "right_inner_knuckle_joint",
-                    ),
-                    max_opening=0.085,
-                    open_position=0.0,
-                    closed_position=0.85,
-                    effort=50.0,
-                ),
-                reach=Reach(in_reach_distance=0.75, minimal_distance=0.2),
-                states={
-                    # folded up and back over the base, out of the camera's view
-                    "park": (0.0, -1.75, -1.4, 0.0, 0.5, 0.0),
-                    # the hand over the front of the base, pointing forward, above the
-                    # camera's lines of sight to the counters
-                    "carry": (0.0, -1.5, -0.9, 0.0, 0.8, 0.0),
-                },
-            ),
-        ),
-        torso=TorsoDescription(joint="torso_lift_joint", lower=0.0, upper=0.4, default=0.2),
-        neck=NeckDescription(
-            pan_joint="head_pan_joint",
-            tilt_joint="head_tilt_joint",
-            camera=CameraDescription(
-                frame="camera_optical_frame",
-                vertical_fov=math.radians(45.0),
-                horizontal_fov=math.radians(60.0),
-            ),
-            states={"forward": (0.0, 0.0)},
-        ),
-    )
 
 
 @pytest.fixture()
