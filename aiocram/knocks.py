@@ -290,7 +290,6 @@ class KnockWatcher(cpl.Instrument):
         #: holds) touching it; invariant: only objects touched at the last motion end
         #: that have not moved since
         self._pressed: dict[str, Motion] = {}
-        self._robot_links: frozenset[str] | None = None  # the true robot's, on first use
         #: free object -> what set it moving (a Knock, "own" or "drift"); invariant: the
         #: objects not at rest at the last checkpoint that moved beyond the tolerance
         #: since they last were (an object found at rest leaves it)
@@ -489,16 +488,9 @@ class KnockWatcher(cpl.Instrument):
 
         world = self.true_world
         c, robot = world.client, world.robot_body
-        if self._robot_links is None:
-            names = {pb.getBodyInfo(robot, physicsClientId=c)[0].decode()}
-            names |= {
-                pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
-                for i in range(pb.getNumJoints(robot, physicsClientId=c))
-            }
-            self._robot_links = frozenset(names)
         attached = world.attachments
         bodies = [robot]
-        bodies += [world.body_of(n) for n, link in attached.items() if link in self._robot_links]
+        bodies += [world.body_of(n) for n, link in attached.items() if link in world.robot_links]
         out = set()
         for name in world.objects:
             if name in attached:

@@ -162,11 +162,7 @@ def _in_drawer(world: Any, position: Any) -> bool:
 
 def _robot_holds(world: Any) -> dict[str, str]:
     """Objects attached to a robot link (not to the kitchen, as the spoon to its drawer)."""
-    return {
-        n: link
-        for n, link in world.attachments.items()
-        if not link.startswith(("sink_area", "kitchen", "iai_"))
-    }
+    return {n: link for n, link in world.attachments.items() if link in world.robot_links}
 
 
 def where_is(world: Any, name: str) -> str:

@@ -348,7 +348,8 @@ class LocationCostmaps:
         return "accept" if yaw_ok else "reject"
 
     def validate_reachable(self, d: Designator, pose: Pose) -> str:
-        """reachable-location: 0.2 < d < 0.7 to the reach point, yaw within 0.1 rad. For a
+        """reachable-location: the arm's minimal < d < in-reach distance
+        (the arm description's Reach) to the reach point, yaw within 0.1 rad. For a
         reach point in an open drawer (see :func:`projection._costmaps.add_reachable_in_drawer`):
         d measured from the reaching arm's shoulder, yaw within 0.1 rad of the drawer
         axis."""
@@ -537,7 +538,7 @@ class LocationCostmaps:
         d: Designator,
         costmap: cm.Costmap,
         target: Sequence[float],
-        in_reach: float = cm.IN_REACH_DISTANCE,
+        in_reach: float,
     ) -> None:
         """``(experience (action type))``: the environment's learned base density, in the
         target's frame (its yaw: the target pose's), facing the target as

@@ -61,14 +61,6 @@ _FAULT_FRACTION = (0.2, 0.8)  #: where along a motion a mid-way fault strikes
 _AT_REST = (1e-3, 1e-2)  #: linear (m/s) and angular (rad/s) speeds of an object at rest
 
 
-def _robot_links(world: World) -> dict[str, int]:
-    c, robot = world.client, world.robot_body
-    return {
-        pb.getJointInfo(robot, i, physicsClientId=c)[12].decode(): i
-        for i in range(pb.getNumJoints(robot, physicsClientId=c))
-    }
-
-
 def sync_robot(true_world: World, belief_world: World) -> None:
     """Set the belief robot's base and joints to the true robot's; objects the belief robot
     holds follow. Nothing else in the belief changes."""
@@ -84,7 +76,7 @@ def sync_robot(true_world: World, belief_world: World) -> None:
     robot = belief_world.robot_body
     for name, link, (rp, rq) in belief.attachments:
         body, index = belief_world._links.get(link, (-1, -1))
-        if body == robot and index >= 0:  # a robot link (not the base), as _robot_links
+        if body == robot and index >= 0:  # a robot link (not the base), as World.robot_links
             lp = belief_world.link_pose(link)
             pos, orn = pb.multiplyTransforms(lp.position, lp.orientation, rp, rq)
             belief_world.set_object_pose(name, Pose(pos, orn), allow_overlap=True)
@@ -106,7 +98,7 @@ class _Body:
         self.drops: dict[str, float] = {}  # arm -> fraction of its next motion
         c, robot = true_world.client, true_world.robot_body
         self.robot_links = [-1, *range(pb.getNumJoints(robot, physicsClientId=c))]
-        links = _robot_links(true_world)
+        links = true_world.robot_links
         self.gripper_links = {
             arm: [i for n, i in links.items() if n in true_world.gripper_links(arm)]
             for arm in true_world.arms

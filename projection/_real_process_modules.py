@@ -48,7 +48,6 @@ from projection._real_body import (
     HEAD_JOINT_VELOCITY,
     TORSO_VELOCITY,
     _Body,
-    _robot_links,
 )
 from projection._real_faults import FaultProfile
 from projection._trajectories import wrap_angle
@@ -293,7 +292,7 @@ class RealPerceptionPM(RealProcessModule):
         neighbours the arm then knocked over): a real detector reports everything it
         recognises in its view."""
         world, body = self.world, self.body
-        links = _robot_links(world)
+        links = world.robot_links
         held = {n for n, link in world.attachments.items() if link in links}
         for name, otype in sorted(world.objects.items()):
             if name == found or name in held:

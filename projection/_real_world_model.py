@@ -21,7 +21,7 @@ from executive.events import (
     RobotStateChanged,
     object_name,
 )
-from projection._real_body import _robot_links, sync_robot
+from projection._real_body import sync_robot
 from projection._world import World
 from projection._world_model import DETACH_SETTLE_STEPS, ProjectedWorldModel
 
@@ -54,7 +54,7 @@ class RealWorldModel:
         self.true_world = true_world
         self.belief_world = belief_world
         self.belief = ProjectedWorldModel(belief_world)
-        self._links = _robot_links(true_world)
+        self._links = true_world.robot_links
 
     # -- queries and probes: the belief's -------------------------------------------
     @property

@@ -196,6 +196,11 @@ class WorldBase:
             for n, i in self._kitchen_joints.items()
         }
         self._link_names = {v: k for k, v in self._links.items()}
+        # the robot's links below its base link -> their link index (what an object can
+        # hang from; fixed once the body is loaded)
+        self._robot_links: Mapping[str, int] = MappingProxyType(
+            {n: i for n, (b, i) in self._links.items() if b == self._robot and i >= 0}
+        )
         # invariant: the room, the xy hull of the kitchen's links (walls included); the
         # robot's base never leaves it (``drive`` refuses goals outside)
         boxes = [
@@ -424,6 +429,13 @@ class WorldBase:
     @property
     def link_names(self) -> tuple[str, ...]:
         return tuple(self._links)
+
+    @property
+    def robot_links(self) -> Mapping[str, int]:
+        """The robot's links below its base link -> their PyBullet link index: the links
+        an object held by the robot hangs from (an attachment to any other link is to the
+        kitchen)."""
+        return self._robot_links
 
     @property
     def attachments(self) -> Mapping[str, str]:

@@ -12,8 +12,6 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import pybullet as pb
-
 from cpl import PlanFailure as _PlanFailure
 from executive import Pose, ProbeResult
 from executive._kitchen import KitchenDescription
@@ -93,11 +91,7 @@ class ProjectedWorldModel:
         # repeated from the same state (the imagined runs, a check then its re-check)
         # costs a lookup. Cleared when it reaches SWEEP_MEMO_SIZE entries.
         self._sweeps: dict[tuple[Any, ...], list[str]] = {}
-        c, robot = world.client, world.robot_body
-        self._robot_links = frozenset(
-            pb.getJointInfo(robot, i, physicsClientId=c)[12].decode()
-            for i in range(pb.getNumJoints(robot, physicsClientId=c))
-        )
+        self._robot_links = world.robot_links
 
     @property
     def robot(self) -> RobotDescription:

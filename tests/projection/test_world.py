@@ -269,3 +269,24 @@ def test_ik_reaches_the_island_placing_poses(world: World) -> None:
     world.drive(ISLAND_NAV)
     for t, xyz in ISLAND_PLACES.items():
         assert _reachable(world, t, Pose(xyz), (2,)), t
+
+
+def test_robot_links_are_the_robot_bodys_links_below_its_base() -> None:
+    """``World.robot_links``: what a held object can hang from (the truth checks and the
+    world models tell a hand from the kitchen by it, never by a link's name)."""
+    with World(seed=0) as w:
+        links = w.robot_links
+        for arm in PR2.arms:
+            assert arm.hand_link in links and arm.tool_frame in links
+        assert PR2.base_frame not in links  # the root link: nothing hangs from it
+        for name, index in links.items():
+            info = pb.getJointInfo(w.robot_body, index, physicsClientId=w.client)
+            assert info[12].decode() == name
+        kitchen = {
+            pb.getJointInfo(w.kitchen_body, i, physicsClientId=w.client)[12].decode()
+            for i in range(pb.getNumJoints(w.kitchen_body, physicsClientId=w.client))
+        }
+        assert w.kitchen.container.link in kitchen and not kitchen & set(links)
+        w.spawn_object("cup-1", "cup", Pose((1.3, 0.6, 0.9)))
+        w.attach("cup-1", w.kitchen.container.link)
+        assert w.attachments["cup-1"] not in links
