@@ -28,16 +28,21 @@ from executive._pose import Pose, Transform
 
 __all__ = [
     "LIFT_OFFSET",
+    "LYING_APPROACH_CONE",
     "LYING_TILT",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
     "Grasp",
     "ObjectKnowledge",
+    "approach_down",
+    "closing_width",
+    "fits_lying",
     "grasp",
     "grasp_poses",
     "grasps",
     "gripper_opening",
     "gripping_effort",
+    "is_lying",
     "known_types",
     "object_knowledge",
 ]
@@ -101,12 +106,16 @@ class Grasp:
 
 @dataclass(frozen=True)
 class ObjectKnowledge:
-    """What the robot knows about a type: grasps (enumeration order), effort, opening."""
+    """What the robot knows about a type: grasps (enumeration order), effort, opening,
+    and its ``size``: the extents (m) along the object frame's x, y and z (its bounding
+    box standing upright; which of them the fingers close across depends on how it lies,
+    see :func:`closing_width`)."""
 
     type: str
     grasps: tuple[Grasp, ...]
     effort: float
     opening: float
+    size: Vec3  # invariant: the projection world's model of the type has these extents
 
     def grasp(self, name: str) -> Grasp:
         for g in self.grasps:
@@ -218,17 +227,20 @@ def _build() -> Mapping[str, ObjectKnowledge]:
             )
         ),
     )
+    # sizes: extents along the object's x, y, z (the cup's x includes its handle)
+    spoon_size = (0.16, 0.03, 0.015)
+    cereal_size = (0.19, 0.07, 0.29)
     table = {
-        "bowl": ObjectKnowledge("bowl", bowl, 100.0, 0.10),
-        "spoon": ObjectKnowledge("spoon", spoon, 100.0, 0.04),
-        "cutlery": ObjectKnowledge("cutlery", spoon, 100.0, 0.04),
-        "fork": ObjectKnowledge("fork", spoon, 100.0, 0.04),
-        "knife": ObjectKnowledge("knife", spoon, 100.0, 0.04),
-        "cup": ObjectKnowledge("cup", cup, 50.0, 0.10),
-        "milk": ObjectKnowledge("milk", milk, 15.0, 0.10),
-        "breakfast-cereal": ObjectKnowledge("breakfast-cereal", cereal, 20.0, 0.10),
-        "cereal": ObjectKnowledge("cereal", cereal, 15.0, 0.10),
-        "plate": ObjectKnowledge("plate", plate, 100.0, 0.02),
+        "bowl": ObjectKnowledge("bowl", bowl, 100.0, 0.10, (0.16, 0.16, 0.055)),
+        "spoon": ObjectKnowledge("spoon", spoon, 100.0, 0.04, spoon_size),
+        "cutlery": ObjectKnowledge("cutlery", spoon, 100.0, 0.04, spoon_size),
+        "fork": ObjectKnowledge("fork", spoon, 100.0, 0.04, spoon_size),
+        "knife": ObjectKnowledge("knife", spoon, 100.0, 0.04, spoon_size),
+        "cup": ObjectKnowledge("cup", cup, 50.0, 0.10, (0.105, 0.08, 0.10)),
+        "milk": ObjectKnowledge("milk", milk, 15.0, 0.10, (0.06, 0.095, 0.2)),
+        "breakfast-cereal": ObjectKnowledge("breakfast-cereal", cereal, 20.0, 0.10, cereal_size),
+        "cereal": ObjectKnowledge("cereal", cereal, 15.0, 0.10, cereal_size),
+        "plate": ObjectKnowledge("plate", plate, 100.0, 0.02, (0.26, 0.26, 0.02)),
     }
     return MappingProxyType(table)
 
@@ -272,6 +284,47 @@ def gripper_opening(object_type: str) -> float:
 #: An object whose z axis is tilted more than this (rad) from the vertical lies: its grasp
 #: offsets' z components go along the vertical (see :func:`grasp_poses`).
 LYING_TILT = 0.35
+#: A lying object is grasped only from above: a grasp whose approach points down, within
+#: this angle (rad) of the vertical, as it lies (see :func:`fits_lying`).
+LYING_APPROACH_CONE = math.pi / 4
+
+
+def is_lying(object_transform: Transform | Pose) -> bool:
+    """Whether the object's z axis is tilted more than :data:`LYING_TILT` from the
+    parent frame's vertical (the parent frame is upright: the map or a robot's base)."""
+    return bool(object_transform.matrix()[2, 2] < math.cos(LYING_TILT))
+
+
+def closing_width(object_type: str, grasp_name: str) -> float:
+    """How far apart (m) the fingers are when they hold the object by this grasp: the
+    type's extent along the axis the standard gripper's fingers close along (its x axis,
+    the first column of the grasp's rotation, in the object frame)."""
+    info = object_knowledge(object_type)
+    g = info.grasp(grasp_name)
+    axis = np.array(g.rotation)[:, 0]
+    return float(np.abs(axis) @ np.array(info.size))
+
+
+def approach_down(object_type: str, grasp_name: str, object_transform: Transform | Pose) -> float:
+    """The cosine between the grasp's approach (the standard gripper's z, in the object
+    frame) and straight down, with the object as ``object_transform`` has it."""
+    g = grasp(object_type, grasp_name)
+    approach = object_transform.matrix()[:3, :3] @ np.array(g.rotation)[:, 2]
+    return float(-approach[2])
+
+
+def fits_lying(
+    object_type: str, grasp_name: str, object_transform: Transform | Pose, opening: float
+) -> bool:
+    """Whether a lying object can be held by this grasp with a gripper that opens
+    ``opening`` metres: the grasp approaches from above (within
+    :data:`LYING_APPROACH_CONE`; from the side, one finger would have to go under the
+    object, into what it lies on) and the fingers close across no more than ``opening``.
+    Deliberate addition: CRAM's grasps assume an upright object."""
+    return (
+        approach_down(object_type, grasp_name, object_transform) >= math.cos(LYING_APPROACH_CONE)
+        and closing_width(object_type, grasp_name) <= opening
+    )
 
 
 def grasp_poses(
@@ -293,7 +346,9 @@ def grasp_poses(
     carton knocked over): the grasp itself stays in the object frame, so the side grasp
     whose approach now points down reaches it from above, fingers across the carton; but
     the offsets' z components (the "up" of the pregrasps and of the lift) go along the
-    parent frame's z, never sideways along the lying object's axis. Deliberate difference:
+    parent frame's z, never sideways along the lying object's axis; where the backing-off
+    along the approach now points up too, the waypoint rises by the larger of the two, not
+    their sum. Deliberate difference:
     CRAM's grasps assume an upright object, so a toppled one could not be picked up; the
     placing (:mod:`plans.pick_place`) then puts the object down upright, holding it by the
     same grasp, now horizontal."""
@@ -308,14 +363,23 @@ def grasp_poses(
     frame = object_transform_in_base.frame
     rot = np.array(g.rotation) @ g_prime_t_g
     lying = b_t_o[2, 2] < math.cos(LYING_TILT)
+    grasp_m = b_t_o @ _homogeneous(rot, g.translation)
     out: list[Pose] = []
     for off in g.offsets():
         up = off[2] if lying else 0.0  # the part of the offset along the parent's z
-        o_t_g = np.eye(4)
-        o_t_g[:3, :3] = rot
-        o_t_g[:3, 3] = np.add(g.translation, (off[0], off[1], off[2] - up))
-        m = b_t_o @ o_t_g
+        m = b_t_o @ _homogeneous(rot, np.add(g.translation, (off[0], off[1], off[2] - up)))
         if lying:
-            m[2, 3] += up
+            # the backing-off along the approach, now vertical, and the "up" are one
+            # direction: the higher of the two, not their sum (0.3 m above a cereal box
+            # on its side is out of the arm's reach)
+            rise = m[2, 3] - grasp_m[2, 3]
+            m[2, 3] = grasp_m[2, 3] + (max(rise, up) if rise >= 0.0 else rise + up)
         out.append(Transform.from_matrix(m, frame).to_pose())
     return out
+
+
+def _homogeneous(rotation: np.ndarray, translation: Sequence[float] | np.ndarray) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = rotation
+    m[:3, 3] = translation
+    return m

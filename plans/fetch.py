@@ -43,9 +43,11 @@ from executive import (
     Retry,
     RuleDoc,
     SolutionCursor,
+    Transform,
     a,
     an,
     current_environment,
+    knowledge,
     perform,
     register_resources,
     retry_scope,
@@ -57,12 +59,14 @@ from ._common import (
     object_label,
     tally,
     the_base,
+    the_robot,
     translating_designator_errors,
 )
 from ._designators import _check_places, _given_arm, _object, default_of, learned_base, robot_name
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
 from .search import arms_out_of_view, search_for_object
+from .toppled import ObjectToppledUngraspable, check_graspable_as_it_lies
 
 __all__ = [
     "FETCH_REGRASPS",
@@ -73,6 +77,7 @@ __all__ = [
     "fetch",
     "floor_base_poses",
     "floor_height",
+    "floor_pick_distances",
     "search_floor",
 ]
 
@@ -137,6 +142,8 @@ async def fetch(
         return ObjectUnfetchable(object=object_label(object_designator))
 
     async def body() -> ObjectDesignator:
+        # as the search perceived it: toppled with no grasp that fits, before moving
+        _check_lying(object_designator)
         name = object_designator.current().get("name")
         object_pose = a.location(of_item_object=name).reference()
         on_floor = object_pose.position[2] < floor_height()
@@ -174,6 +181,7 @@ async def fetch(
             )
             async def pick() -> None:
                 perceived = await perform(an.action(type="detecting", object=object_designator))
+                _check_lying(perceived)
                 given_arm, given_grasp = _arm_and_grasp(pick_up_action)
                 picking = an.action(
                     type="picking-up",
@@ -194,6 +202,8 @@ async def fetch(
         result: ObjectDesignator = await translating_designator_errors(body, unfetchable)
     except ObjectUnfetchable as failure:
         height = _believed_height(object_designator)
+        if isinstance(failure, ObjectToppledUngraspable):
+            raise  # it says why already (logged and counted)
         if height is None or height >= floor_height():
             raise
         log.warning(
@@ -217,32 +227,74 @@ FETCH_RELOCATION_FAILURES = (
 
 
 #: Where the base stands to pick an object up from the floor, in the object's frame
-#: turned to the base's yaw: this far behind it (m) and this far to either side, so that
-#: the arm on that side reaches down next to the base (the ``reachable-for`` costmap is
-#: made for counter heights, from where the floor is out of reach).
-FLOOR_PICK_DISTANCE = 0.5
+#: turned to the base's yaw: this far behind it and this far to either side, so that the
+#: arm on that side reaches down next to the base (the ``reachable-for`` costmap is made
+#: for counter heights, from where the floor is out of reach). The distances behind it
+#: are fractions of the robot's shortest arm reach
+#: (:attr:`executive.Reach.in_reach_distance`), farther first: for the PR2-like robot
+#: (0.7 m) 0.5 m, from where its arm, torso lowest, takes a tool pointing down to 0.04 m
+#: above the floor, then 0.45 m (to about 0.02 m) and 0.4 m (the floor itself; measured
+#: with the projection world's IK, the object 0.2 m to the side): a carton lying on its
+#: broad face is grasped 0.02 m high, and the closer poses are in collision with a lying
+#: carton whose long axis points at the base (the navigation check drops them).
+FLOOR_PICK_REACH_FRACTIONS = (5.0 / 7.0, 4.5 / 7.0, 4.0 / 7.0)
 FLOOR_PICK_SIDE = 0.2
+#: Further sideways offsets tried after :data:`FLOOR_PICK_SIDE` (m): an object lying next
+#: to a counter is reached with the base standing along the counter, farther to the side.
+FLOOR_PICK_MORE_SIDES = (0.3,)
 #: Base yaws (around the object) of the floor base poses.
 FLOOR_PICK_YAWS = 16
+
+
+def floor_pick_distances() -> tuple[float, ...]:
+    """How far behind an object on the floor the base stands to pick it up (m), farther
+    first: :data:`FLOOR_PICK_REACH_FRACTIONS` of the current robot's shortest arm reach."""
+    reach = min(arm.reach.in_reach_distance for arm in the_robot().arms)
+    return tuple(round(f * reach, 6) for f in FLOOR_PICK_REACH_FRACTIONS)
 
 
 def floor_base_poses(object_pose: Pose) -> tuple[Pose, ...]:
     """Base poses from which an arm can reach an object on the floor at ``object_pose``
     (map): around it at :data:`FLOOR_PICK_YAWS` yaws, the object
-    :data:`FLOOR_PICK_DISTANCE` ahead and :data:`FLOOR_PICK_SIDE` to the left or right,
-    nearest to the robot first (the navigation check drops those in collision)."""
+    :data:`FLOOR_PICK_SIDE` to the left or right and each of :func:`floor_pick_distances`
+    ahead; the spots nearest to the robot first, at each spot the farther distance first
+    and then the closer one (an object lying low, out of the arm's reach from the first,
+    is reached from the second without spending the relocations on every other spot;
+    the navigation check drops those in collision). Deliberate addition: CRAM never
+    fetched from the floor."""
     ox, oy = object_pose.position[0], object_pose.position[1]
     robot = current_environment().world.robot_pose().position
-    poses = []
+    distances = floor_pick_distances()
+    spots = []
     for k in range(FLOOR_PICK_YAWS):
         yaw = 2 * math.pi * k / FLOOR_PICK_YAWS
         c, s = math.cos(yaw), math.sin(yaw)
-        for side in (FLOOR_PICK_SIDE, -FLOOR_PICK_SIDE):
-            x = ox - c * FLOOR_PICK_DISTANCE + s * side
-            y = oy - s * FLOOR_PICK_DISTANCE - c * side
-            poses.append(Pose.from_xyz_yaw(x, y, 0.0, yaw))
-    poses.sort(key=lambda p: math.dist(p.position[:2], robot[:2]))
-    return tuple(poses)
+        for lateral in (FLOOR_PICK_SIDE, *FLOOR_PICK_MORE_SIDES):
+            for side in (lateral, -lateral):
+                spot = [
+                    Pose.from_xyz_yaw(ox - c * d + s * side, oy - s * d - c * side, 0.0, yaw)
+                    for d in distances
+                ]
+                spots.append((lateral != FLOOR_PICK_SIDE, spot))
+    # nearest to the robot by the spot's farthest pose (the order the rings had before)
+    spots.sort(key=lambda spot: (spot[0], math.dist(spot[1][0].position[:2], robot[:2])))
+    return tuple(p for _more, spot in spots for p in spot)
+
+
+def _check_lying(perceived: Any) -> None:
+    """A perceived object that lies toppled with no grasp that fits the gripper:
+    :class:`plans.toppled.ObjectToppledUngraspable` (logged, counted) before anything
+    moves. Perceived without a type or a pose in the base frame: nothing is checked."""
+    obj = perceived.current() if isinstance(perceived, ObjectDesignator) else perceived
+    transform = obj.get("transform") if hasattr(obj, "get") else None
+    otype = obj.get("type") if hasattr(obj, "get") else None
+    if not isinstance(transform, Transform) or not isinstance(otype, str):
+        return
+    try:
+        knowledge.object_knowledge(otype)
+    except LookupError:
+        return  # the picking-up grounding names the known types
+    check_graspable_as_it_lies(obj, otype, transform)
 
 
 def _believed_height(object_designator: ObjectDesignator) -> float | None:
@@ -339,7 +391,7 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
                 default="-",
             ),
         ),
-        raises=(ObjectUnfetchable, ObjectUnreachableOnFloor),
+        raises=(ObjectUnfetchable, ObjectUnreachableOnFloor, ObjectToppledUngraspable),
         retries=(
             Retry(
                 10,
@@ -370,7 +422,9 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
         ),
         note="Designator errors become ObjectUnfetchable. An object believed on the floor "
         "(below 0.3 m) is fetched from base poses around it; out of reach there: "
-        "ObjectUnreachableOnFloor (logged, counted).",
+        "ObjectUnreachableOnFloor (logged, counted). An object lying toppled with no grasp "
+        "from above that fits the gripper: ObjectToppledUngraspable (logged, counted), "
+        "before anything moves.",
     ),
 )
 def _fetching(d: Designator) -> Iterator[Any]:

@@ -16,6 +16,9 @@ opening (object knowledge), but no wider than the arm's gripper opens
 opening is the type's whatever the robot: a Panda's 0.08 m gripper cannot open to the
 0.10 m of a cup, and ``setting-gripper`` refuses an opening out of range.
 
+A lying (toppled) object is picked the way it lies: only the grasps from above that fit
+the arm's gripper are solutions (:mod:`plans.toppled`; deliberate addition).
+
 ``placing (object O)? (arm A)? (target L)?``: the arms holding something (or the given
 arm); the target's every solution (else the object's current pose); the five waypoints at
 the target, reversed. Deliberate fix of CRAM HEAD's quirk (it always used the type's
@@ -92,6 +95,7 @@ from ._common import (
     tool_frame_of,
 )
 from ._designators import _given_arm
+from .toppled import lying_grasps
 
 _log = logging.getLogger(__name__)
 
@@ -368,6 +372,10 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     preferences = current_environment().preferences
     if preferences is not None:
         pairs = _checked_order(pairs, preferences.order_choices("picking-up", otype, pairs))
+    if "grasp" not in d and knowledge.is_lying(transform):
+        # a toppled object: only the grasps from above that fit this arm's gripper
+        # (plans.toppled; deliberate addition, CRAM's grasps assume it upright)
+        pairs = [(a, g) for a, g in pairs if g in lying_grasps(otype, transform, (str(g),), a)]
     for arm, grasp in pairs:
         assert grasp is not None
         hand = arm_description(arm)

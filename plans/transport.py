@@ -41,6 +41,7 @@ from .environment import DEFAULT_DISTANCE
 from .environment_access import seal_if_open
 from .fetch import ObjectUnreachableOnFloor, search_floor
 from .reasoning import FetchAndDeliver, ProjectedParameters, with_projected_task_tree
+from .toppled import ObjectToppledUngraspable
 
 __all__ = ["transport"]
 
@@ -141,8 +142,8 @@ async def transport(
                 explore=FetchAndDeliver(found, target, arm),
             )
         except ObjectUnfetchable as failure:
-            if isinstance(failure, ObjectUnreachableOnFloor):
-                raise
+            if isinstance(failure, (ObjectUnreachableOnFloor, ObjectToppledUngraspable)):
+                raise  # seen where it is, and why it cannot be picked is known
             # no longer where it was fetched from (dropped, or knocked off): the floor
             found = await search_floor(found, failure)
             return await with_projected_task_tree(fetch_and_deliver, projection_runs, enabled=False)

@@ -17,9 +17,11 @@ from executive import ObjectNowhereToBeFound, Pose, an, perform
 from executive.testing import InMemoryWorld
 from plans import retry_ledger
 from plans.fetch import (
-    FLOOR_PICK_DISTANCE,
+    FLOOR_PICK_MORE_SIDES,
     FLOOR_PICK_SIDE,
     ObjectUnreachableOnFloor,
+    floor_base_poses,
+    floor_pick_distances,
     search_floor,
 )
 from projection import make_world_pair, settle
@@ -97,9 +99,14 @@ def test_a_cup_on_the_floor_out_of_reach_is_a_counted_typed_failure(
     # every base pose tried was one from which an arm reaches down to the floor
     goals = [m.reference().arguments["pose"] for m in robot.calls("navigation", "going")]
     assert goals
-    reach = math.hypot(FLOOR_PICK_DISTANCE, FLOOR_PICK_SIDE)
+    reaches = [
+        math.hypot(d, side)
+        for d in (0.5, 0.45, 0.4)  # the PR2-like arm's floor_pick_distances()
+        for side in (FLOOR_PICK_SIDE, *FLOOR_PICK_MORE_SIDES)
+    ]
     for goal in goals:
-        assert math.dist(goal.position[:2], cup.position[:2]) == pytest.approx(reach, abs=1e-6)
+        away = math.dist(goal.position[:2], cup.position[:2])
+        assert min(abs(away - r) for r in reaches) < 1e-6
 
 
 def test_the_floor_search_needs_an_object_it_knows_by_name() -> None:
@@ -113,3 +120,58 @@ def test_the_floor_search_needs_an_object_it_knows_by_name() -> None:
     with pytest.raises(ObjectNowhereToBeFound, match="not at the sink"):
         robot.run(go)
     assert robot.calls("navigation") == []  # nothing moved
+
+
+#: A milk carton lying on its broad face (0.06 m high): its x axis vertical.
+ON_ITS_SIDE = (0.0, math.sqrt(0.5), 0.0, math.sqrt(0.5))
+
+
+def test_a_carton_lying_low_on_the_floor_is_reached_from_closer_and_delivered_standing(
+    mrun: Any,
+) -> None:
+    """Issue 26: a carton on its broad face on the floor is grasped 0.02 m above it, out
+    of the PR2-like arm's reach from the 0.5 m floor base poses; the base stands closer
+    (:func:`plans.fetch.floor_pick_distances`), the carton is picked from above and
+    delivered standing on the island. Before: ``ObjectUnreachableOnFloor``."""
+    true, belief = make_world_pair(0, belief_objects="exact")
+    try:
+        true.set_object_pose("milk-1", Pose((0.85, 0.6, 0.03), ON_ITS_SIDE))
+        settle(true, 240)
+        assert true.object_pose("milk-1").position[2] < 0.05
+
+        async def main() -> Any:
+            return await transport_for_real(true, belief, "milk", "milk-1")
+
+        delivered = mrun(main)
+        assert delivered is not None  # not dropped at the sink
+        settle(true, 240)
+        (lx, ly, _), (hx, hy, hz) = true.link_aabb("kitchen_island_surface")
+        end = true.object_pose("milk-1")
+        x, y, z = end.position
+        assert lx < x < hx and ly < y < hy and hz < z < hz + 0.15  # on the island
+        assert end.matrix()[2, 2] > math.cos(math.radians(15))  # standing
+        assert "milk-1" not in true.attachments
+    finally:
+        true.close()
+        belief.close()
+
+
+def test_floor_base_poses_stand_closer_after_farther_at_each_spot() -> None:
+    world = _floor_world()
+    robot = make_robot(world)
+    spot = Pose((1.3, 0.6, 0.03))
+    out: list[Any] = []
+
+    got: list[tuple[float, ...]] = []
+
+    async def go() -> None:
+        out.extend(floor_base_poses(spot))
+        got.append(floor_pick_distances())
+
+    robot.run(go)
+    (distances,) = got
+    assert distances == pytest.approx((0.5, 0.45, 0.4))
+    first = out[: len(distances)]  # one spot: the same yaw, farther first
+    assert len({round(p.yaw, 9) for p in first}) == 1
+    ahead = [math.dist(p.position[:2], spot.position[:2]) for p in first]  # hypot(distance, side)
+    assert ahead == pytest.approx([math.hypot(d, FLOOR_PICK_SIDE) for d in distances])

@@ -70,3 +70,45 @@ def test_with_grasps_for_upright_objects_only_the_lying_carton_is_lost(
     outcome, end, _island = _transport_lying_milk(mrun, monkeypatch, math.pi)
     assert outcome is not None and type(outcome).__name__ == "ObjectUnfetchable"
     assert _tilt(end) > math.radians(80)
+
+
+#: The box on its broad face: its y axis (0.07 m) vertical, on its 0.19 x 0.29 m face.
+ON_ITS_BROAD_FACE = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
+
+
+def test_a_cereal_box_on_its_broad_face_fails_typed_and_counted_untouched(mrun: Any) -> None:
+    """Issue 26: a box lying on its broad face is wider than the gripper on every side
+    that faces up. The transport fails with :class:`plans.toppled.ObjectToppledUngraspable`
+    naming why, counted, and the arm never touched the box (measured in the true world).
+    Before, every relocation and pick check was spent on it (``ObjectUnfetchable``)."""
+    from plans import retry_ledger
+    from plans.toppled import ObjectToppledUngraspable
+
+    true, belief = make_world_pair(0, belief_objects="exact")
+    name = "breakfast-cereal-1"
+    try:
+        x, y, _z = true.object_pose(name).position
+        (_, _, _), (_, _, top) = true.link_aabb("sink_area_surface")
+        true.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
+        settle(true, 240)
+        before = true.object_pose(name)
+        assert _tilt(before) > math.radians(80)
+        counts: dict[str, int] = {}
+
+        async def main() -> Any:
+            with retry_ledger() as ledger:
+                try:
+                    return await transport_for_real(true, belief, "breakfast-cereal", name)
+                finally:
+                    counts.update(ledger)
+
+        with pytest.raises(ObjectToppledUngraspable, match=r"0\.190 and 0\.290 m across"):
+            mrun(main)
+        assert counts.get("toppled-ungraspable") == 1
+        assert "relocations" not in counts  # no base pose was spent on it
+        settle(true, 240)
+        after = true.object_pose(name)
+        assert math.dist(after.position, before.position) < 0.01  # never touched
+    finally:
+        true.close()
+        belief.close()
