@@ -32,6 +32,7 @@ __all__ = [
     "LYING_TILT",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
+    "TOPPLED_TILT",
     "Grasp",
     "ObjectKnowledge",
     "approach_down",
@@ -289,10 +290,18 @@ LYING_TILT = 0.35
 LYING_APPROACH_CONE = math.pi / 4
 
 
+#: An object whose z axis is tilted more than this (rad) from the vertical lies on one of
+#: its sides (toppled), not just leaning: only grasps from above are tried (see
+#: :func:`fits_lying`). Between :data:`LYING_TILT` and this, an object leans (against a
+#: counter, a neighbour) and every grasp is tried, as before.
+TOPPLED_TILT = math.pi / 4
+
+
 def is_lying(object_transform: Transform | Pose) -> bool:
-    """Whether the object's z axis is tilted more than :data:`LYING_TILT` from the
-    parent frame's vertical (the parent frame is upright: the map or a robot's base)."""
-    return bool(object_transform.matrix()[2, 2] < math.cos(LYING_TILT))
+    """Whether the object lies on one of its sides: its z axis tilted more than
+    :data:`TOPPLED_TILT` from the parent frame's vertical (the parent frame is upright:
+    the map or a robot's base)."""
+    return bool(object_transform.matrix()[2, 2] < math.cos(TOPPLED_TILT))
 
 
 def closing_width(object_type: str, grasp_name: str) -> float:

@@ -1,8 +1,9 @@
 """Toppled objects: which grasps can hold an object that lies (a carton or box knocked on
 its side), and the typed failure when none can.
 
-An object lies when its z axis is tilted more than :data:`executive.knowledge.LYING_TILT`
-from the vertical. It is then picked the way it lies, from above: of its type's grasps
+An object lies (toppled, on one of its sides) when its z axis is tilted more than
+:data:`executive.knowledge.TOPPLED_TILT` (45 degrees) from the vertical; one that only
+leans keeps every grasp. A lying object is picked the way it lies, from above: of its type's grasps
 only those whose approach points down as it lies and whose fingers close across no more
 than the arm's gripper opens (:attr:`executive.GripperDescription.max_opening`; the
 widths from the type's size in :mod:`executive.knowledge`) are tried; the placing then
