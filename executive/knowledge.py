@@ -298,10 +298,11 @@ TOPPLED_TILT = math.pi / 4
 
 
 def is_lying(object_transform: Transform | Pose) -> bool:
-    """Whether the object lies on one of its sides: its z axis tilted more than
-    :data:`TOPPLED_TILT` from the parent frame's vertical (the parent frame is upright:
-    the map or a robot's base)."""
-    return bool(object_transform.matrix()[2, 2] < math.cos(TOPPLED_TILT))
+    """Whether the object lies on one of its sides: its z axis more than
+    :data:`TOPPLED_TILT` from the parent frame's vertical, up or down (the parent frame
+    is upright: the map or a robot's base). Upside down (a spoon on its back) is not
+    lying on a side: it keeps its grasps, as before."""
+    return bool(abs(object_transform.matrix()[2, 2]) < math.cos(TOPPLED_TILT))
 
 
 def closing_width(object_type: str, grasp_name: str) -> float:

@@ -130,9 +130,11 @@ def test_picking_up_a_lying_carton_offers_only_the_grasps_that_fit() -> None:
 
 
 def test_a_leaning_box_keeps_every_grasp() -> None:
-    """Tilted 30 degrees (leaning against a counter): not toppled, every grasp is tried,
-    as before; toppled past 45 degrees: only the grasps from above."""
+    """Tilted 30 degrees (leaning against a counter) or upside down: not toppled, every
+    grasp is tried, as before; toppled past 45 degrees: only the grasps from above."""
     leaning = Pose((0.6, 0.0, 0.9), (0.0, math.sin(0.26), 0.0, math.cos(0.26)))
     assert not knowledge.is_lying(leaning)
     toppled = Pose((0.6, 0.0, 0.9), (0.0, math.sin(0.4), 0.0, math.cos(0.4)))
     assert knowledge.is_lying(toppled)
+    upside_down = Pose((0.6, 0.0, 0.9), (1.0, 0.0, 0.0, 0.0))  # a spoon on its back
+    assert not knowledge.is_lying(upside_down)
