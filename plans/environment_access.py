@@ -51,6 +51,7 @@ from executive import (
 from ._common import (
     CountedRetries,
     arm_names,
+    tally,
     the_base,
     translating_designator_errors,
 )
@@ -63,10 +64,12 @@ __all__ = [
     "CLOSED_WITHIN",
     "ENVIRONMENT_RELOCATIONS",
     "ENVIRONMENT_RELOCATION_FAILURES",
+    "FARTHER_AT_LEAST",
     "OTHER_ARM_RELOCATIONS",
     "SEAL_TIMEOUT",
     "free_arm",
     "manipulate_environment",
+    "open_farther",
     "opening_of",
     "seal_if_open",
 ]
@@ -325,6 +328,53 @@ async def seal_if_open(location: LocationDesignator, *, assume_open: bool = Fals
         raise EnvironmentManipulationImpossible(
             f"sealing {container.short()} did not finish within {SEAL_TIMEOUT} s"
         ) from timeout
+    return True
+
+
+# ------------------------------------------------------------------- opening farther
+#: :func:`open_farther` opens a container only if it can go at least this much (m)
+#: farther.
+FARTHER_AT_LEAST = 0.05
+
+
+async def open_farther(location: LocationDesignator) -> bool:
+    """Open the container of ``location`` (``(in <container>)``) to the end of its travel,
+    with ``accessing`` and a free arm; returns whether it did. For a search that found
+    nothing in it: CRAM's accessing opens a drawer by 0.3 m, and what lies behind that
+    (the back 0.28 m of the sink drawer) stays inside the cabinet, out of the camera's
+    view. Deliberate addition (no CRAM plan opens farther).
+
+    Nothing to do (False): the world model cannot tell the container's travel
+    (:class:`executive.ContainerStates`), it is open to within :data:`FARTHER_AT_LEAST` of
+    its end, or no hand is free. An ``accessing`` that fails
+    (``EnvironmentManipulationImpossible``: its checks found no arm and base pose that
+    open it) is logged and counted (``drawer-farther-failed``), and False returned; the
+    caller's cleanup closes the container by however far the world model has it open."""
+    container = location.get("in")
+    if not isinstance(container, ObjectDesignator):
+        raise DesignatorError(
+            f"{location.short()}: opening farther needs (in <container>)", location
+        )
+    world = current_environment().world
+    name = container.get("urdf-name")
+    if not isinstance(world, ContainerStates) or not isinstance(name, str):
+        return False
+    try:
+        position, _lower, upper = world.container_state(name)
+    except LookupError:
+        return False
+    room = upper - position
+    arm = free_arm()
+    if room < FARTHER_AT_LEAST or arm is None:
+        return False
+    tally("drawer-farther")
+    accessing = an.action(type="accessing", location=location, arm=arm, distance=room)
+    try:
+        await perform(accessing)
+    except EnvironmentManipulationImpossible as failure:
+        log.warning("could not open %s farther: %s", container.short(), failure)
+        tally("drawer-farther-failed")
+        return False
     return True
 
 
