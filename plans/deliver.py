@@ -143,10 +143,22 @@ async def deliver(
     object_type = _held_type(object_designator)
     injected_spot = _injected_spot(place_action, robot_location)
 
-    def undeliverable(_failure: BaseException | None = None) -> ObjectUndeliverable:
-        return ObjectUndeliverable(object=object_label(object_designator))
-
     stands = 0  # base poses navigated to so far (the first STRICT_STANDS are strict)
+    placings = 0  # placings checked from a stand reached (targets tried there)
+
+    def undeliverable(failure: BaseException | None = None) -> ObjectUndeliverable:
+        # what was tried, and why the last try failed (an inner scope's own
+        # object-undeliverable: what it was raised from)
+        while isinstance(failure, ObjectUndeliverable) and failure.__cause__ is not None:
+            failure = failure.__cause__
+        last = ""
+        if failure is not None and not isinstance(failure, ObjectUndeliverable):
+            last = f"; last: {type(failure).__name__}: {str(failure)[:160]}"
+        return ObjectUndeliverable(
+            f"{object_designator.current().short()}: no delivery pose reached from {stands} "
+            f"base pose(s) navigated to, {placings} placing target(s) checked there{last}",
+            object=object_label(object_designator),
+        )
 
     @retry_scope((DesignatorError, ObjectUndeliverable), targets, outer, rethrow=undeliverable)
     async def attempt() -> None:
@@ -180,6 +192,8 @@ async def deliver(
                 rethrow=undeliverable,
             )
             async def place_at_target() -> None:
+                nonlocal placings
+                placings += 1
                 spot = to_map(targets.current.reference())
                 await perform(an.action(type="turning-towards", target=targets.current))
                 check_placing_pose_stability(object_type, spot)

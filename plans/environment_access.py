@@ -9,8 +9,10 @@ action             retries (HEAD)                              raises when exhau
 accessing/sealing  10 relocations                              env.-manipulation-impossible
 =================  ==========================================  ============================
 
-Deliberate difference from CRAM (kept in spirit): when the base stops short
-(:class:`plans.navigation.BaseStoppedShort`) the drawer is tried from where it stopped.
+Deliberate differences from CRAM HEAD: when the base stops short
+(:class:`plans.navigation.BaseStoppedShort`) the drawer is tried from where it stopped
+(kept in spirit); and when the arm's relocations run out, the robot's other empty hands
+are tried (v0.8.1's arm retry), each with :data:`OTHER_ARM_RELOCATIONS` base poses.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from executive import (
     EnvironmentUnreachable,
     GripperLowLevelFailure,
     Key,
+    ListCursor,
     LocationDesignator,
     ManipulationLowLevelFailure,
     NavigationGoalInCollision,
@@ -48,6 +51,7 @@ from executive import (
 from ._common import (
     CountedRetries,
     arm_names,
+    tally,
     the_base,
     translating_designator_errors,
 )
@@ -58,10 +62,14 @@ from .navigation import BaseStoppedShort
 
 __all__ = [
     "CLOSED_WITHIN",
+    "ENVIRONMENT_RELOCATIONS",
     "ENVIRONMENT_RELOCATION_FAILURES",
+    "FARTHER_AT_LEAST",
+    "OTHER_ARM_RELOCATIONS",
     "SEAL_TIMEOUT",
     "free_arm",
     "manipulate_environment",
+    "open_farther",
     "opening_of",
     "seal_if_open",
 ]
@@ -79,11 +87,23 @@ async def manipulate_environment(
     ``closing``, check it (:func:`check_environment_manipulation_collisions`, contacts with
     the drawer allowed) and perform it. On ``navigation-goal-in-collision``,
     ``environment-unreachable``, gripper or manipulation low-level failures: next base
-    pose. Raises ``EnvironmentManipulationImpossible`` (also for designator errors)."""
+    pose. When the relocations run out, the arm scope tries the robot's other empty
+    hands, each with :data:`OTHER_ARM_RELOCATIONS` base poses (v0.8.1's one arm retry;
+    HEAD had none). Raises ``EnvironmentManipulationImpossible`` (also for designator
+    errors) naming the arms tried.
+
+    Deliberate difference from HEAD (v0.8.1 retries with the other arm too): the left
+    arm's ten base poses in front of the sink drawer all failed to open it on seeds 16
+    and 17 (the pulled handle ends on the robot's right, out of the left arm's reach, or
+    the drawer front would be pulled into the robot), and the spoon in it was lost."""
+    arms = ListCursor([arm, *_other_free_arms(arm)])
+    tried: list[str] = []
 
     def impossible(_failure: BaseException | None = None) -> EnvironmentManipulationImpossible:
         verb = "open" if action_type == "accessing" else "close"  # "cannot open drawer-1"
-        return EnvironmentManipulationImpossible(f"cannot {verb} {container.short()}")
+        return EnvironmentManipulationImpossible(
+            f"cannot {verb} {container.short()} (arms tried: {', '.join(tried)})"
+        )
 
     async def body() -> None:
         link = handle_link(container)
@@ -91,33 +111,58 @@ async def manipulate_environment(
             handle = current_environment().world.link_pose(link, "map")
         except LookupError as error:
             raise DesignatorError(f"{container.short()}: {error}", container) from error
-        base_poses = SolutionCursor(
-            a.location(reachable_for=robot_name(), location=a.location(pose=handle), arm=arm)
-        )
         allowed = (link, str(container.get("urdf-name")))
 
         @retry_scope(
-            ENVIRONMENT_RELOCATION_FAILURES,
-            base_poses,
-            CountedRetries(10, "relocations"),
+            EnvironmentManipulationImpossible,
+            arms,
+            CountedRetries(len(arm_names()) - 1, "environment-arms"),
             rethrow=impossible,
         )
-        async def from_here() -> None:
-            try:
-                await perform(an.action(type="navigating", location=base_poses.current))
-            except BaseStoppedShort as failure:
-                # deliberate: as CRAM did for every navigation, try from where the base
-                # stopped (next to an open drawer the base often stops a little short);
-                # the checked trajectory below decides whether the handle is in reach
-                log.info("acting on %s from where the base stopped: %s", link, failure)
-            verb = "opening" if action_type == "accessing" else "closing"
-            action = an.action(type=verb, object=container, arm=arm, distance=distance)
-            await perform(check_environment_manipulation_collisions(action, allowed))
+        async def with_arm() -> None:
+            hand: str = arms.current
+            tried.append(hand)
+            base_poses = SolutionCursor(
+                a.location(reachable_for=robot_name(), location=a.location(pose=handle), arm=hand)
+            )
+            relocations = ENVIRONMENT_RELOCATIONS if hand == arm else OTHER_ARM_RELOCATIONS
 
-        await from_here()
+            @retry_scope(
+                ENVIRONMENT_RELOCATION_FAILURES,
+                base_poses,
+                CountedRetries(relocations, "relocations"),
+                rethrow=impossible,
+            )
+            async def from_here() -> None:
+                try:
+                    await perform(an.action(type="navigating", location=base_poses.current))
+                except BaseStoppedShort as failure:
+                    # deliberate: as CRAM did for every navigation, try from where the
+                    # base stopped (next to an open drawer the base often stops a little
+                    # short); the checked trajectory below decides whether the handle is
+                    # in reach
+                    log.info("acting on %s from where the base stopped: %s", link, failure)
+                verb = "opening" if action_type == "accessing" else "closing"
+                action = an.action(type=verb, object=container, arm=hand, distance=distance)
+                await perform(check_environment_manipulation_collisions(action, allowed))
+
+            await translating_designator_errors(from_here, impossible)
+
+        await with_arm()
 
     await translating_designator_errors(body, impossible)
 
+
+def _other_free_arms(arm: str) -> list[str]:
+    """The robot's arms other than ``arm`` whose hand holds nothing (world model)."""
+    world = current_environment().world
+    return [n for n in arm_names() if n != arm and world.object_in_hand(n) is None]
+
+
+#: The relocation scope of ``accessing`` / ``sealing`` for the arm asked for (CRAM HEAD's).
+ENVIRONMENT_RELOCATIONS = 10
+#: The relocation scope for each other arm tried after it (deliberate addition).
+OTHER_ARM_RELOCATIONS = 5
 
 #: The failures after which ``accessing`` / ``sealing`` go to the next base pose.
 ENVIRONMENT_RELOCATION_FAILURES = (
@@ -187,15 +232,23 @@ def _environment_doc(verb: str) -> RuleDoc:
         raises=(EnvironmentManipulationImpossible,),
         retries=(
             Retry(
-                10,
+                ENVIRONMENT_RELOCATIONS,
                 ENVIRONMENT_RELOCATION_FAILURES,
                 "the next base pose reaching the handle",
                 counter="relocations",
             ),
+            Retry(
+                1,
+                (EnvironmentManipulationImpossible,),
+                f"another empty hand, with {OTHER_ARM_RELOCATIONS} base poses reaching the "
+                "handle for it (per other arm)",
+                counter="environment-arms",
+            ),
         ),
         performs=("navigating", acting),
         note="Designator errors become EnvironmentManipulationImpossible. A base that "
-        "stopped short acts from where it stopped.",
+        "stopped short acts from where it stopped. The arm given is tried first, then the "
+        "robot's other empty hands.",
     )
 
 
@@ -275,6 +328,53 @@ async def seal_if_open(location: LocationDesignator, *, assume_open: bool = Fals
         raise EnvironmentManipulationImpossible(
             f"sealing {container.short()} did not finish within {SEAL_TIMEOUT} s"
         ) from timeout
+    return True
+
+
+# ------------------------------------------------------------------- opening farther
+#: :func:`open_farther` opens a container only if it can go at least this much (m)
+#: farther.
+FARTHER_AT_LEAST = 0.05
+
+
+async def open_farther(location: LocationDesignator) -> bool:
+    """Open the container of ``location`` (``(in <container>)``) to the end of its travel,
+    with ``accessing`` and a free arm; returns whether it did. For a search that found
+    nothing in it: CRAM's accessing opens a drawer by 0.3 m, and what lies behind that
+    (the back 0.28 m of the sink drawer) stays inside the cabinet, out of the camera's
+    view. Deliberate addition (no CRAM plan opens farther).
+
+    Nothing to do (False): the world model cannot tell the container's travel
+    (:class:`executive.ContainerStates`), it is open to within :data:`FARTHER_AT_LEAST` of
+    its end, or no hand is free. An ``accessing`` that fails
+    (``EnvironmentManipulationImpossible``: its checks found no arm and base pose that
+    open it) is logged and counted (``drawer-farther-failed``), and False returned; the
+    caller's cleanup closes the container by however far the world model has it open."""
+    container = location.get("in")
+    if not isinstance(container, ObjectDesignator):
+        raise DesignatorError(
+            f"{location.short()}: opening farther needs (in <container>)", location
+        )
+    world = current_environment().world
+    name = container.get("urdf-name")
+    if not isinstance(world, ContainerStates) or not isinstance(name, str):
+        return False
+    try:
+        position, _lower, upper = world.container_state(name)
+    except LookupError:
+        return False
+    room = upper - position
+    arm = free_arm()
+    if room < FARTHER_AT_LEAST or arm is None:
+        return False
+    tally("drawer-farther")
+    accessing = an.action(type="accessing", location=location, arm=arm, distance=room)
+    try:
+        await perform(accessing)
+    except EnvironmentManipulationImpossible as failure:
+        log.warning("could not open %s farther: %s", container.short(), failure)
+        tally("drawer-farther-failed")
+        return False
     return True
 
 

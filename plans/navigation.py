@@ -11,8 +11,9 @@ turning-towards    1 (turn the base, look again)               looking-high-leve
 ``back-off`` (a deliberate addition: CRAM has none) retreats the base before the arms are
 parked next to a counter; ``fetch`` and ``deliver`` use it. Deliberate differences from
 CRAM: ``go-without-collisions`` does not ignore the going's failures (it drives again,
-then raises :class:`BaseStoppedShort`), and a ptu failure of the look forward while
-turning towards is ignored.
+then raises :class:`BaseStoppedShort`; when a collision on the way stopped it, it drives
+again by a :func:`detour`), and a ptu failure of the look forward while turning towards
+is ignored.
 
 ``navigating`` claims the base for its duration, ``turning-towards`` the head and the base
 (it may turn the base) (:func:`executive.register_resources`).
@@ -36,6 +37,7 @@ from executive import (
     NavigationGoalInCollision,
     NavigationHighLevelFailure,
     NavigationLowLevelFailure,
+    NavigationPoseUnreachable,
     Pose,
     PtuLowLevelFailure,
     Resource,
@@ -67,11 +69,14 @@ from .checks import check_navigating_collisions
 
 __all__ = [
     "BACK_OFF",
+    "DETOUR_BACK_OFFS",
     "NAVIGATION_RETRIES",
     "NAVIGATION_TOLERANCE",
     "PARK_BACK_OFFS",
     "BaseStoppedShort",
     "back_off",
+    "detour",
+    "detour_poses",
     "go_without_collisions",
     "park_clear",
     "turn_towards",
@@ -99,21 +104,83 @@ async def go_without_collisions(location: LocationDesignator) -> None:
     checked = check_navigating_collisions(location)
     goal: Pose = to_map(checked.reference())
 
+    blocked = False  # the last going stopped at a collision (not a fault)
+    start = current_environment().world.robot_pose()  # free: the base stood there
+
     @retry_scope(
         NavigationLowLevelFailure,
         None,
         CountedRetries(NAVIGATION_RETRIES, "navigation"),
         rethrow=lambda failure: BaseStoppedShort(f"did not get to {checked.short()}: {failure}"),
+        before_retry=lambda: detour(start, goal) if blocked else None,
     )
     async def go() -> None:
+        nonlocal blocked
         try:
             await perform(an.action(type="going", target=checked))
         except NavigationLowLevelFailure as failure:
             if not _close_enough(goal):
+                blocked = _blocked_by_collision(failure)
                 raise
             log.info("the base stopped short but close enough to %r: %s", goal, failure)
 
     await go()
+
+
+def _blocked_by_collision(failure: BaseException) -> bool:
+    """Whether the going stopped because the base (or what it carries) would have
+    collided (its cause is a :class:`executive.NavigationPoseUnreachable`), not because
+    of a fault."""
+    cause: BaseException | None = failure
+    while cause is not None:
+        if isinstance(cause, NavigationPoseUnreachable):
+            return True
+        cause = cause.__cause__
+    return False
+
+
+#: How far (m) behind a goal, along the goal's own heading, :func:`detour` looks for a
+#: pre-stand, nearest first.
+DETOUR_BACK_OFFS = (0.5, 0.8)
+
+
+def detour_poses(goal: Pose) -> tuple[Pose, ...]:
+    """The pre-stands of :func:`detour`: ``goal`` (map) moved back along its heading by
+    each of :data:`DETOUR_BACK_OFFS`, with the goal's yaw."""
+    x, y, _z = goal.position
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    return tuple(Pose.from_xyz_yaw(x - c * d, y - s * d, 0.0, goal.yaw) for d in DETOUR_BACK_OFFS)
+
+
+async def detour(start: Pose, goal: Pose) -> None:
+    """Before driving again to a ``goal`` (map) that a collision on the way stopped the
+    base short of: drive back to ``start`` (where this navigating began: free, the base
+    stood there, and the way back is the way it came), then to a pre-stand behind the goal
+    (:func:`detour_poses`, the first that is collision-free in the belief,
+    ``probe_base_pose``), so that the last leg is a straight drive forwards onto the goal.
+
+    Deliberate addition (CRAM's navigation had no path around obstacles, and
+    ``go-without-collisions`` only drove again from where it stopped): a stand beside the
+    kitchen island's corner (the milk's, south of the island) was reached by a straight
+    or dog-leg path that clipped the corner; the base stopped there, wedged (every first
+    step from there collided), and stayed on every try and every base pose (seeds 12 and
+    17 without faults: the milk was dropped at the sink). A step of the detour that fails,
+    or no free pre-stand, is logged and counted (``detour-failed``): the drive to the goal
+    is tried anyway, and its own failure says what happened."""
+    world = current_environment().world
+    steps = [start]
+    pre = next((via for via in detour_poses(goal) if world.probe_base_pose(via).ok), None)
+    if pre is None:
+        log.info("no collision-free pre-stand behind %r", goal)
+        tally("detour-failed")
+    else:
+        steps.append(pre)
+    for via in steps:
+        try:
+            await perform(an.action(type="going", target=a.location(pose=via)))
+        except NavigationLowLevelFailure as failure:
+            log.info("the detour to %r stopped short: %s", via, failure)
+            tally("detour-failed")
 
 
 class BaseStoppedShort(NavigationGoalInCollision):
@@ -164,7 +231,8 @@ def _wrap(angle: float) -> float:
             Retry(
                 NAVIGATION_RETRIES,
                 (NavigationLowLevelFailure,),
-                "drive again from where the base stopped (within 5 cm / 0.1 rad counts)",
+                "drive again (within 5 cm / 0.1 rad counts); stopped by a collision: "
+                "by a detour (back to the start, a pre-stand behind the goal)",
                 counter="navigation",
             ),
         ),

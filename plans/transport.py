@@ -38,7 +38,7 @@ from ._common import the_base
 from ._designators import _check_places, _given_arm, _location, _object
 from .deliver import drop_at_sink
 from .environment import DEFAULT_DISTANCE
-from .environment_access import seal_if_open
+from .environment_access import open_farther, seal_if_open
 from .fetch import ObjectUnreachableOnFloor, search_floor
 from .reasoning import FetchAndDeliver, ProjectedParameters, with_projected_task_tree
 from .toppled import ObjectToppledUngraspable
@@ -58,7 +58,10 @@ async def transport(
 ) -> ObjectDesignator | None:
     """Access the container (if ``location`` is ``in`` one), search, fetch and deliver the
     object; an ``object-undeliverable`` makes it drop the object at the sink. An object
-    not found at ``location`` or not fetchable there is looked for on the floor around
+    not found in the container it opened is looked for again once the container is open
+    to the end of its travel (:func:`plans.environment_access.open_farther`; deliberate
+    addition: CRAM opens by 0.3 m, and the back of the drawer stays inside the cabinet).
+    An object not found at ``location`` or not fetchable there is looked for on the floor around
     where it was believed (:func:`plans.fetch.search_floor`; deliberate addition, no
     CRAM plan does this), then fetched (from the floor) and delivered without projection;
     otherwise search and fetch failures propagate. Fetch and deliver run inside
@@ -91,17 +94,24 @@ async def transport(
                 )
             )
             accessed = True
+        searching = an.action(
+            type="searching",
+            object=object_designator,
+            location=location,
+            viewpoint_reasoning=viewpoint_reasoning,
+        )
         try:
-            found = await perform(
-                an.action(
-                    type="searching",
-                    object=object_designator,
-                    location=location,
-                    viewpoint_reasoning=viewpoint_reasoning,
-                )
-            )
-        except ObjectNowhereToBeFound as failure:
-            found = await search_floor(object_designator, failure)
+            found = await perform(searching)
+        except ObjectNowhereToBeFound as not_found:
+            missing: ObjectNowhereToBeFound = not_found
+            found = None
+            if accessed and await open_farther(location):
+                try:  # what lay behind the first opening is in view now
+                    found = await perform(searching)
+                except ObjectNowhereToBeFound as again:
+                    missing = again
+            if found is None:
+                found = await search_floor(object_designator, missing)
 
         async def fetch_and_deliver(given: ProjectedParameters) -> ObjectDesignator | None:
             # CRAM's body of with-projected-task-tree: the parameters are what projection
@@ -205,7 +215,9 @@ async def _drop_and_return(obj: ObjectDesignator) -> None:
             "placing",
         ),
         note="ObjectUndeliverable: the object is dropped at the sink (placed on the sink "
-        "counter) and None returned. Not found, or not fetchable: searched on the floor "
+        "counter) and None returned. Not found in the drawer it opened: the drawer is "
+        "opened to the end of its travel and searched again. Not found, or not "
+        "fetchable: searched on the floor "
         "around where it was believed, then fetched and delivered without projection. The "
         "drawer is closed in a shielded finally (also when the transport is evaporated).",
     ),
