@@ -227,6 +227,9 @@ def reroute_cartesian(
     allowed |= touched_objects(world, free)
     others = free - allowed
     hit = False
+    if len(path) <= 2:  # no IK along the line: the straight joint-space segment
+        world.move_joints(**path[0][1])
+        hit = _path_hits(world, arms, path[0][1], path[-1][1], allowed)
     for _t, config in path[1:-1]:
         world.move_joints(**config)
         if touched_objects(world, others):

@@ -60,7 +60,12 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from executive.failures import ManipulationPoseUnreachable
-from projection._collision_model import CONTACT_TOLERANCE, ArmChain, CollisionModel
+from projection._collision_model import (
+    CONTACT_TOLERANCE,
+    QUANTUM_ANGLE,
+    ArmChain,
+    CollisionModel,
+)
 
 __all__ = [
     "ACCELERATION",
@@ -93,10 +98,9 @@ ESCAPE = 0.2
 #: A joint configuration: a sequence of floats or a 1-d array.
 Q = Sequence[float] | np.ndarray
 Check = Callable[[Q], bool]
-_Cached = tuple[np.ndarray, bool] | ManipulationPoseUnreachable
 #: Plans an :class:`ArmMotionPlanner` remembers (imagined runs repeat the same motions).
 CACHE_SIZE = 256
-_DIGITS = 4  # rounding (m, rad) of the cache keys, as of the model digest
+_DIGITS = 4  # rounding (m, rad) of the exact cache keys, as of the model digest
 
 
 @dataclass(frozen=True)
@@ -124,6 +128,26 @@ class ArmTrajectory:
         return tuple(
             float(np.interp(t, self.times, self.positions[:, j])) for j in range(len(self.joints))
         )
+
+
+@dataclass(frozen=True)
+class _Entry:
+    """A remembered answer: the query's exact key (the world to 1e-4, the start and
+    goal), and either the path (``vertices``, whether it was sampled, the trajectory
+    returned) or the deterministic failure (the check budget spent)."""
+
+    exact_key: tuple[object, ...]
+    vertices: np.ndarray | None
+    planned: bool
+    trajectory: ArmTrajectory | None
+    failure: ManipulationPoseUnreachable | None = None
+
+
+def _frozen(trajectory: ArmTrajectory) -> ArmTrajectory:
+    """``trajectory`` with read-only arrays (a remembered trajectory is shared)."""
+    trajectory.positions.flags.writeable = False
+    trajectory.times.flags.writeable = False
+    return trajectory
 
 
 def _segment_times(d: np.ndarray, vmax: np.ndarray, amax: float, u: np.ndarray) -> np.ndarray:
@@ -307,11 +331,14 @@ class ArmMotionPlanner:
                 raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
         self.model = model
         self.verifier = verifier
-        # (model digest, start, goal, seed, allowed, budget) -> (vertices, sampled) or the
-        # budget failure; least recently used first. A hit's path is verified again in
-        # the exact geometry of the world as it is now (the key is rounded).
-        self._cache: OrderedDict[object, _Cached] = OrderedDict()
+        # (model coarse digest, start and goal quantised, chain, seed, allowed, budget) ->
+        # its _Entry; least recently used first, at most CACHE_SIZE. A hit in the exact
+        # world of the entry returns its trajectory; one in a world equal only up to the
+        # quanta has its path verified again in the exact geometry of the world now.
+        self._cache: OrderedDict[object, _Entry] = OrderedDict()
+        #: Queries answered from the cache, and planned (or failed) afresh.
         self.cache_hits = 0
+        self.cache_misses = 0
         self.chain = chain
         self.resolution = resolution
         self.verify_resolution = verify_resolution
@@ -416,6 +443,17 @@ class ArmMotionPlanner:
             raise TypeError(
                 f"allowed_contacts is a set of names, not the string {allowed_contacts!r}"
             )
+        key, exact_key = self._keys(a, b, seed, allowed, max_checks)
+        cached = self._cache.get(key)
+        if cached is not None and cached.exact_key == exact_key:
+            # the same query in the same world: the same answer, nothing checked again
+            self._hit(key)
+            if cached.failure is not None:
+                raise ManipulationPoseUnreachable(
+                    str(cached.failure.message), **cached.failure.details
+                )
+            assert cached.trajectory is not None
+            return cached.trajectory
         padded = _Checker(self.model, self.chain, allowed)
         exact = _Checker(self.verifier, self.chain, allowed)
         for checker in (padded, exact):
@@ -441,39 +479,58 @@ class ArmMotionPlanner:
             near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
             return bool(near and exact.valid(q))
 
-        key = (
-            self.model.digest,
-            tuple(np.round(a, _DIGITS).tolist()),
-            tuple(np.round(b, _DIGITS).tolist()),
-            seed,
-            allowed,
-            max_checks,
-        )
-        cached = self._cache.get(key)
-        if isinstance(cached, ManipulationPoseUnreachable):
-            self.cache_hits += 1
-            raise ManipulationPoseUnreachable(str(cached.message), **cached.details)
-        if cached is not None:
-            vertices = cached[0].copy()
+        if cached is not None and cached.vertices is not None:
+            # the same query in a world equal up to the quanta: the remembered path, its
+            # ends moved to this query's, if the exact geometry confirms it now
+            vertices = cached.vertices.copy()
             vertices[0], vertices[-1] = a, b
             if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
-                self.cache_hits += 1
-                self._cache.move_to_end(key)
+                self._hit(key)
                 positions, times = time_parameterise(
                     vertices, self.chain.max_velocity, self.acceleration, self.resolution
                 )
                 positions[0], positions[-1] = a, b
-                return ArmTrajectory(self.chain.joints, positions, times, cached[1], exact.calls)
+                trajectory = _frozen(
+                    ArmTrajectory(self.chain.joints, positions, times, cached.planned, exact.calls)
+                )
+                self._remember(key, _Entry(exact_key, vertices, cached.planned, trajectory))
+                return trajectory
+        self.cache_misses += 1
         try:
             trajectory, vertices = self._plan(a, b, check, padded, exact, seed, max_checks, timeout)
         except ManipulationPoseUnreachable as e:
             if e.details.get("reason") == "budget spent":  # deterministic: remembered
-                self._remember(key, e)
+                self._remember(key, _Entry(exact_key, None, False, None, e))
             raise
-        self._remember(key, (vertices, trajectory.planned))
+        trajectory = _frozen(trajectory)
+        self._remember(key, _Entry(exact_key, vertices, trajectory.planned, trajectory))
         return trajectory
 
-    def _remember(self, key: object, value: _Cached) -> None:
+    def _keys(
+        self, a: np.ndarray, b: np.ndarray, seed: int, allowed: frozenset[str], max_checks: int
+    ) -> tuple[tuple[object, ...], tuple[object, ...]]:
+        """The cache key of a query (the world and the configurations quantised: see
+        :data:`projection._collision_model.QUANTUM`) and its exact key (to 1e-4)."""
+        query = (self.chain.joints, seed, allowed, max_checks)
+        key = (
+            self.model.coarse_digest,
+            tuple(int(v) for v in np.round(a / QUANTUM_ANGLE)),
+            tuple(int(v) for v in np.round(b / QUANTUM_ANGLE)),
+            *query,
+        )
+        exact_key = (
+            self.model.digest,
+            tuple(np.round(a, _DIGITS).tolist()),
+            tuple(np.round(b, _DIGITS).tolist()),
+            *query,
+        )
+        return key, exact_key
+
+    def _hit(self, key: object) -> None:
+        self.cache_hits += 1
+        self._cache.move_to_end(key)
+
+    def _remember(self, key: object, value: _Entry) -> None:
         self._cache[key] = value
         self._cache.move_to_end(key)
         while len(self._cache) > CACHE_SIZE:
