@@ -23,10 +23,12 @@ class Sweep:
     the robot touches where the motion starts or ends (the object reached for, the one
     just released), sorted; ``seconds``: the path's duration at the simulated real robot's
     joint speeds (:func:`projection._arm_planner.leg_seconds`, as the real arms module
-    times it); ``waypoints``: the path's configurations."""
+    times it), None where the path was not computed (no free object in the arm's reach:
+    nothing to sweep, the straight move's time is taken); ``waypoints``: the path's
+    configurations (2 where it was not computed)."""
 
     swept: tuple[str, ...]
-    seconds: float
+    seconds: float | None
     waypoints: int
 
 
@@ -46,6 +48,8 @@ class SweepMemo:
         self._entries: OrderedDict[tuple[Any, ...], Sweep] = OrderedDict()
         self.hits = 0
         self.misses = 0
+        #: (arm, held object types) -> the arm's span (m) from its shoulder (geometry)
+        self.spans: dict[tuple[str, tuple[str, ...]], float] = {}
 
     def __len__(self) -> int:
         return len(self._entries)

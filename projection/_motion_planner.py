@@ -65,6 +65,7 @@ from projection._collision_model import (
     QUANTUM_ANGLE,
     ArmChain,
     CollisionModel,
+    _quantised,
 )
 
 __all__ = [
@@ -339,6 +340,10 @@ class ArmMotionPlanner:
         #: Queries answered from the cache, and planned (or failed) afresh.
         self.cache_hits = 0
         self.cache_misses = 0
+        # the world around the chain as of the last sync (_local_digest; None: not
+        # synced from a World here, the model's coarse digest keys the cache)
+        self._local: tuple[object, ...] | None = None
+        self._span_cache: tuple[int, float] | None = None
         self.chain = chain
         self.resolution = resolution
         self.verify_resolution = verify_resolution
@@ -367,7 +372,9 @@ class ArmMotionPlanner:
             model.close()
             raise
         try:
-            return cls(model, verifier, model.chain(joints, tool_link, touch), **kwargs)
+            planner = cls(model, verifier, model.chain(joints, tool_link, touch), **kwargs)
+            planner._local = planner._local_digest(world)
+            return planner
         except BaseException:
             model.close()
             verifier.close()
@@ -385,6 +392,105 @@ class ArmMotionPlanner:
             raise TypeError(f"expected a projection World, got {type(world).__name__}")
         self.model.sync(world)
         self.verifier.sync(world)
+        self._local = self._local_digest(world)
+
+    def _span(self) -> tuple[int, float]:
+        """The chain's first moving link and an upper bound (m) of how far any point of
+        the links it moves can get from that link's origin, whatever the joints: over the
+        moving links, the sum of the origin-to-parent-origin distances down the tree to
+        the link (the chain stretches no further) plus the farthest corner of the link's
+        box from its origin (what the hand holds is added per world:
+        :meth:`_local_digest`)."""
+        if self._span_cache is not None:
+            return self._span_cache
+        m = self.model
+        c = m.client
+        links = sorted(self.chain.moving_links)
+        parent = {i: int(pb.getJointInfo(m.robot, i, physicsClientId=c)[16]) for i in links}
+        first = min(self.chain.indices)
+        origin = {
+            i: np.array(
+                pb.getLinkState(m.robot, i, computeForwardKinematics=1, physicsClientId=c)[4]
+            )
+            for i in links
+        }
+        # along the tree: how far link i's origin can get from the first one's, plus the
+        # reach of its own box around its origin
+        reach: dict[int, float] = {}
+        span = 0.0
+        for i in links:  # parents first: joint indices grow down the tree
+            up = parent[i]
+            reach[i] = (
+                reach[up] + float(np.linalg.norm(origin[i] - origin[up])) if up in reach else 0.0
+            )
+            lo, hi = pb.getAABB(m.robot, i, physicsClientId=c)
+            for corner in itertools.product(*zip(lo, hi)):
+                span = max(span, reach[i] + float(np.linalg.norm(np.array(corner) - origin[i])))
+        self._span_cache = (first, span)
+        return self._span_cache
+
+    def _local_digest(self, world: object) -> tuple[object, ...]:
+        """The part of ``world`` this chain's plans depend on, quantised
+        (:data:`projection._collision_model.QUANTUM`): every robot joint, and the objects
+        and kitchen links whose boxes come within the chain's span (:meth:`_span`) of its
+        first link, with their poses *relative to the robot's base*. A motion planned at
+        one base pose serves another where the same things stand around the arm (the
+        imagined runs try several base poses; most arm motions there are self-collision
+        detours). Bodies beyond the span cannot touch the chain; the path of a hit is
+        verified again in the exact geometry anyway."""
+        from projection._world import World
+
+        assert isinstance(world, World)
+        first, span = self._span()
+        m = self.model
+        for h in m.held.values():  # as far as a held object's box reaches past its link
+            state = pb.getLinkState(
+                m.robot, h.link, computeForwardKinematics=1, physicsClientId=m.client
+            )
+            link = state[4]
+            lo, hi = pb.getAABB(h.body, -1, physicsClientId=m.client)
+            span += max(
+                float(np.linalg.norm(np.array(corner) - np.array(link)))
+                for corner in itertools.product(*zip(lo, hi))
+            )
+        wc = world.client
+        robot = world.robot_body
+        n = pb.getNumJoints(robot, physicsClientId=wc)
+        joints = [v[0] for v in pb.getJointStates(robot, range(n), physicsClientId=wc)]
+        state = pb.getLinkState(robot, first, computeForwardKinematics=1, physicsClientId=wc)
+        shoulder = np.array(state[4])
+        base = world.robot_pose()
+        inv = pb.invertTransform(base.position, base.orientation)
+
+        def near(lo: Sequence[float], hi: Sequence[float]) -> bool:
+            gap = np.maximum(0.0, np.maximum(np.array(lo) - shoulder, shoulder - np.array(hi)))
+            return float(np.linalg.norm(gap)) <= span
+
+        def local(pos: Sequence[float], orn: Sequence[float]) -> tuple[int, ...]:
+            p, q = pb.multiplyTransforms(inv[0], inv[1], pos, orn)
+            return _quantised(p, q)
+
+        around: list[object] = []
+        attachments = world.attachments
+        for name, otype in world.objects.items():
+            if near(*world.object_aabb(name)):
+                pose = world.object_pose(name)
+                around.append(
+                    (name, otype, attachments.get(name), local(pose.position, pose.orientation))
+                )
+        kitchen = world.kitchen_body
+        for i in range(-1, pb.getNumJoints(kitchen, physicsClientId=wc)):
+            if not pb.getCollisionShapeData(kitchen, i, physicsClientId=wc):
+                continue  # no geometry: nothing to touch
+            if not near(*pb.getAABB(kitchen, i, physicsClientId=wc)):
+                continue
+            if i < 0:
+                pos, orn = pb.getBasePositionAndOrientation(kitchen, physicsClientId=wc)
+            else:
+                ls = pb.getLinkState(kitchen, i, computeForwardKinematics=1, physicsClientId=wc)
+                pos, orn = ls[4], ls[5]
+            around.append((i, local(pos, orn)))
+        return (self.model.padding, _quantised((), (0.0, 0.0, 0.0, 1.0), joints), tuple(around))
 
     # ------------------------------------------------------------------ input
     def _config(self, q: Q, what: str) -> np.ndarray:
@@ -513,7 +619,7 @@ class ArmMotionPlanner:
         :data:`projection._collision_model.QUANTUM`) and its exact key (to 1e-4)."""
         query = (self.chain.joints, seed, allowed, max_checks)
         key = (
-            self.model.coarse_digest,
+            self._local if self._local is not None else self.model.coarse_digest,
             tuple(int(v) for v in np.round(a / QUANTUM_ANGLE)),
             tuple(int(v) for v in np.round(b / QUANTUM_ANGLE)),
             *query,

@@ -348,7 +348,9 @@ class ArmsPM(ProjectionProcessModule):
     so a motion a probe checked costs a lookup. The projected duration is that path's at
     the real robot's joint speeds (its :func:`~projection._arm_planner.leg_seconds`, as
     the real arms module times it: a planned detour takes longer than the straight line),
-    not the straight move's.
+    where a path is computed: when no free object is within the arm's reach nothing can
+    be swept, the path is neither computed nor planned (imagining stays fast), and the
+    straight move's duration (a lower bound) is taken.
 
     Deliberate difference from CRAM: CRAM's projected arms teleport (only the goal's IK
     and, on request, its collisions are checked), so a plan imagined there never sees an

@@ -17,6 +17,9 @@ import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
+import pybullet as pb
+
 from executive import Pose
 from projection._arm_planner import (
     Config,
@@ -85,13 +88,20 @@ def arm_motion_sweep(
     sweep = memo.get(key)
     if sweep is not None:
         return sweep
-    others = set(free) - touched_objects(world, set(free))
+    others = _within_reach(world, arms, set(free), torso, goal_torso)
+    others -= touched_objects(world, others)
     if others:
         world.move_torso(torso)
         world.move_joints(**{a: start[a] for a in arms})
         others -= touched_objects(world, others)
         world.move_torso(goal_torso)
         world.move_joints(**{a: goal[a] for a in arms})
+    if not others:
+        # nothing in reach to sweep: the path is not computed (nor planned), the
+        # projected time is the straight move's (a lower bound of a planned detour's)
+        sweep = Sweep((), None, 2)
+        memo.put(key, sweep)
+        return sweep
     path: list[Config] = controller_path(world, command, arms, args, torso, dict(start))
     hits = swept_objects(world, path, others) if others else set()
     seconds = sum(leg_seconds(u, v) for u, v in itertools.pairwise(path))
@@ -100,3 +110,64 @@ def arm_motion_sweep(
     sweep = Sweep(tuple(sorted(hits)), seconds, len(path))
     memo.put(key, sweep)
     return sweep
+
+
+def _within_reach(
+    world: World, arms: Sequence[str], names: set[str], torso: float, goal_torso: float
+) -> set[str]:
+    """The objects of ``names`` that some configuration of ``arms`` could touch: those
+    whose box comes within the arm's span (:func:`_span`) of its shoulder anywhere on
+    the shoulder's way between the torso heights. A sound filter (no path computed can
+    touch the others), cheap beside a path: most objects stand far from the arm."""
+    if not names:
+        return set()
+    shoulders = []
+    for a in arms:
+        index = world._arm_joints[a][0]
+        shoulder = np.array(world._link_tf(world._robot, index)[0])
+        shoulders.append((shoulder, _span(world, a) + abs(goal_torso - torso)))
+    out = set()
+    for n in names:
+        lo, hi = (np.array(v) for v in world.object_aabb(n))
+        for shoulder, span in shoulders:
+            gap = np.maximum(0.0, np.maximum(lo - shoulder, shoulder - hi))
+            if float(np.linalg.norm(gap)) <= span:
+                out.add(n)
+                break
+    return out
+
+
+def _span(world: World, arm: str) -> float:
+    """An upper bound (m) of how far any point of ``arm`` (its links and what they hold)
+    can be from its shoulder (its first joint's link origin), whatever its joints: the
+    sum over its links of the distance from each link's origin to its parent's (the
+    chain can stretch no further), plus the largest distance from a link's origin to a
+    corner of its box, plus the farthest corner of a held object from the link it hangs
+    on, plus 5 cm. Kept per world, arm and held object types (a grasp of another type
+    reaches further)."""
+    held = [n for n, link in world.attachments.items() if link in world.arm_links(arm)]
+    key = (arm, tuple(sorted(world.objects[n] for n in held)))
+    spans = world.sweep_memo.spans
+    if key in spans:
+        return spans[key]
+    robot = world._robot
+    first = world._arm_joints[arm][0]
+    indices = [i for n, (b, i) in world._links.items() if b == robot and n in world.arm_links(arm)]
+    origin = {i: np.array(world._link_tf(robot, i)[0]) for i in indices}
+    chain = sum(
+        float(np.linalg.norm(origin[i] - origin[world._parent_link[i]]))
+        for i in indices
+        if i != first and world._parent_link[i] in origin
+    )
+    radius = 0.0
+    for i in indices:
+        lo, hi = pb.getAABB(robot, i, physicsClientId=world.client)
+        for corner in itertools.product(*zip(lo, hi)):
+            radius = max(radius, float(np.linalg.norm(np.array(corner) - origin[i])))
+    extra = 0.0
+    for n in held:  # its farthest corner from the link it hangs on
+        link = np.array(world.link_pose(world.attachments[n]).position)
+        for corner in itertools.product(*zip(*world.object_aabb(n))):
+            extra = max(extra, float(np.linalg.norm(np.array(corner) - link)))
+    spans[key] = span = chain + radius + extra + 0.05
+    return span

@@ -29,7 +29,7 @@ from executive.failures import (
     ManipulationGoalInCollision,
     PerceptionObjectNotInWorld,
 )
-from projection._arm_planner import controller_path, swept_objects, touched_objects
+from projection._arm_planner import touched_objects
 from projection._objects import object_type as _object_type
 from projection._swept_motions import arm_motion_sweep
 from projection._world import KITCHEN, Contact, World
@@ -363,8 +363,10 @@ class ProjectedWorldModel:
             others -= touched_objects(world, others)
             if not others:
                 return ProbeResult(True)
-            path = controller_path(world, "move-joints", arms, goals, torso, start)
-            hits = sorted(swept_objects(world, path, others))
+            # the world's answer (remembered: the arms module asks it again when the
+            # motion is executed), restricted to the objects not allowed
+            sweep = arm_motion_sweep(world, "move-joints", arms, goals, torso, start)
+            hits = [n for n in sweep.swept if n in others]
         finally:
             world.restore(snap)
         if hits:
