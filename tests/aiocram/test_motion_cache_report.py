@@ -14,7 +14,7 @@ def test_the_record_counts_the_belief_worlds_sweeps() -> None:
     from aiocram.demo import DemoConfig, run_demo
 
     async def probe_a_park_twice(world: Any, config: Any) -> dict[str, Any]:
-        model = current_environment().world
+        model: Any = current_environment().world
         belief = model.belief_world
         # a box beside the robot, in its belief: within the arm's reach, clear of it
         belief.spawn_object("box-9", "breakfast-cereal", Pose((0.45, -0.45, 0.3)))
