@@ -14,7 +14,7 @@ measured it on this machine:
 4. otherwise RRTConnect (single-threaded: PRM deadlocks with a Python checker) on a fresh
    ``SimpleSetup`` seeded right before it is built, stopped by a budget of validity checks
    (deterministic) with a wall-clock timeout as a safety net only; then rope shortcutting
-   and vertex reduction (deterministic; time-bounded simplification is not);
+   between vertex reductions (deterministic; time-bounded simplification is not);
 5. the path checked every :data:`VERIFY_RESOLUTION` rad in the exact geometry (the planning
    model's obstacles are inflated by :data:`projection._collision_model.PADDING` so that
    grazes between checked states are caught); a graze: planned again at half the
@@ -785,6 +785,9 @@ class ArmMotionPlanner:
             )
         path = ss.getSolutionPath()
         simplifier = ss.getPathSimplifier()
+        # vertices reduced first: the rope shortcut then works on a short path (about
+        # 15 % fewer checks in all, paths as short; each step is deterministic)
+        simplifier.reduceVertices(path)
         simplifier.ropeShortcutPath(path)
         simplifier.reduceVertices(path)
         vertices = np.array([s[0:n] for s in path.getStates()], dtype=float)
