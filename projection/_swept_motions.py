@@ -139,10 +139,10 @@ def _within_reach(
 
 def _span(world: World, arm: str) -> float:
     """An upper bound (m) of how far any point of ``arm`` (its links and what they hold)
-    can be from its shoulder (its first joint's link origin), whatever its joints: the
-    sum over its links of the distance from each link's origin to its parent's (the
-    chain can stretch no further), plus the largest distance from a link's origin to a
-    corner of its box, plus the farthest corner of a held object from the link it hangs
+    can be from its shoulder (its first joint's link origin), whatever its joints: over
+    its links, the sum of the origin-to-parent-origin distances down the tree to the
+    link (the chain can stretch no further) plus the farthest corner of the link's box
+    from its origin; plus the farthest corner of a held object from the link it hangs
     on, plus 5 cm. Kept per world, arm and held object types (a grasp of another type
     reaches further)."""
     held = [n for n, link in world.attachments.items() if link in world.arm_links(arm)]
@@ -151,19 +151,21 @@ def _span(world: World, arm: str) -> float:
     if key in spans:
         return spans[key]
     robot = world._robot
-    first = world._arm_joints[arm][0]
-    indices = [i for n, (b, i) in world._links.items() if b == robot and n in world.arm_links(arm)]
-    origin = {i: np.array(world._link_tf(robot, i)[0]) for i in indices}
-    chain = sum(
-        float(np.linalg.norm(origin[i] - origin[world._parent_link[i]]))
-        for i in indices
-        if i != first and world._parent_link[i] in origin
+    indices = sorted(
+        i for n, (b, i) in world._links.items() if b == robot and n in world.arm_links(arm)
     )
+    origin = {i: np.array(world._link_tf(robot, i)[0]) for i in indices}
+    # along the tree (a parent's index is below its child's): how far each link's origin
+    # can get from the first one's, plus the farthest corner of its box from its origin
+    reach: dict[int, float] = {}
     radius = 0.0
     for i in indices:
+        up = world._parent_link[i]
+        reach[i] = reach[up] + float(np.linalg.norm(origin[i] - origin[up])) if up in reach else 0.0
         lo, hi = pb.getAABB(robot, i, physicsClientId=world.client)
         for corner in itertools.product(*zip(lo, hi)):
-            radius = max(radius, float(np.linalg.norm(np.array(corner) - origin[i])))
+            radius = max(radius, reach[i] + float(np.linalg.norm(np.array(corner) - origin[i])))
+    chain = 0.0
     extra = 0.0
     for n in held:  # its farthest corner from the link it hangs on
         link = np.array(world.link_pose(world.attachments[n]).position)
