@@ -211,11 +211,11 @@ def reroute_cartesian(
     """A joint-space route (:func:`arm_path`, no fallback) replacing the Cartesian
     ``path`` of a ``moving-tcp`` when that line (or, where the line had no IK solution
     along it, the straight joint-space segment the arm then follows) sweeps the arm
-    through a free object other than those touched at its start or end (the object a reach approaches, the one the
-    hand is next to), e.g. from the carry pose to a pregrasp straight through a
-    neighbouring object; None (keep the line) when it is clear, when the torso moves
-    along it, or when no route is clear either. Leaves the arms and torso wherever the
-    checks put them (the caller resets)."""
+    through a free object other than those touched at its start or end (the object a
+    reach approaches, the one the hand is next to), e.g. from the carry pose to a
+    pregrasp straight through a neighbouring object; None (keep the line) when it is
+    clear, when the torso moves along it, or when no route is clear either. Leaves the
+    arms and torso wherever the checks put them (the caller resets)."""
     torso = path[0][0]
     if abs(path[-1][0] - torso) > 1e-3:
         return None
