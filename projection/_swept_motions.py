@@ -63,7 +63,11 @@ def arm_motion_sweep(
     "move-tcp" or "move-joints" of ``arms`` with goals ``args``) that started at
     ``torso``/``start``: the :class:`Sweep` of the path the simulated controller follows
     (:func:`projection._arm_planner.controller_path`), remembered in
-    ``world.sweep_memo``. Leaves the robot at the goal configuration."""
+    ``world.sweep_memo``. With ``World.arm_motion_planning`` on, OMPL is asked only when
+    the router's path (the controller's without a planner) sweeps something: a planned
+    path sweeps nothing the router's does not (see the code), so where that one is clear
+    the answer is known without planning, and its duration is the router path's (a lower
+    bound of the planned one's). Leaves the robot at the goal configuration."""
     goal_torso = world.torso_height
     goal = {a: world.arm_joints(a) for a in world.arms}
     free = sorted(n for n in world.objects if n not in world.attachments)
@@ -102,8 +106,21 @@ def arm_motion_sweep(
         sweep = Sweep((), None, 2)
         memo.put(key, sweep)
         return sweep
-    path: list[Config] = controller_path(world, command, arms, args, torso, dict(start))
-    hits = swept_objects(world, path, others) if others else set()
+    planning = world.arm_motion_planning
+    try:
+        # the router's path first (no OMPL): a planned path avoids every free object but
+        # those touched where the motion starts or ends, and a failed plan falls back to
+        # the router, so where the router's path sweeps nothing the planned one cannot
+        # either: no plan needed to know it
+        world.arm_motion_planning = False
+        path: list[Config] = controller_path(world, command, arms, args, torso, dict(start))
+        hits = swept_objects(world, path, others)
+        if hits and planning:
+            world.arm_motion_planning = True
+            path = controller_path(world, command, arms, args, torso, dict(start))
+            hits = swept_objects(world, path, others)
+    finally:
+        world.arm_motion_planning = planning
     seconds = sum(leg_seconds(u, v) for u, v in itertools.pairwise(path))
     world.move_torso(goal_torso)
     world.move_joints(**{a: goal[a] for a in arms})
