@@ -27,6 +27,7 @@ from executive import (
     Key,
     LocationDesignator,
     LookingHighLevelFailure,
+    ManipulationGoalInCollision,
     ManipulationLowLevelFailure,
     NavigationGoalInCollision,
     ObjectDesignator,
@@ -233,8 +234,15 @@ DELIVER_RELOCATION_FAILURES = (
     ObjectUndeliverable,
     ManipulationLowLevelFailure,
 )
-#: The failures after which ``deliver`` tries the next target from where it stands.
-DELIVER_TARGET_FAILURES = (LookingHighLevelFailure, ObjectUnreachable, PlacingPoseUnstable)
+#: The failures after which ``deliver`` tries the next target from where it stands
+#: (a ``ManipulationGoalInCollision`` is projection's prediction that the placing's arm
+#: would sweep through an object: the real arm raises none, it knocks the object).
+DELIVER_TARGET_FAILURES = (
+    LookingHighLevelFailure,
+    ObjectUnreachable,
+    PlacingPoseUnstable,
+    ManipulationGoalInCollision,
+)
 
 
 def _held_type(obj: ObjectDesignator) -> str:

@@ -5,7 +5,8 @@ joint space when that line sweeps through a free object (:func:`reroute_cartesia
 a configuration move (park, carry) is routed around free objects (:func:`arm_path`).
 The goal configuration itself is the one the belief world's IK imagined
 (:func:`imagined_goal`), or a collision-aware choice among torso heights
-(:func:`clear_ik`). Projection teleports, so plans never see these paths.
+(:func:`clear_ik`). Projection computes the same paths: its probes and its arms
+process module (:mod:`projection._swept_motions`) predict what they sweep.
 
 With ``World.arm_motion_planning`` on (off by default, issue 26 in progress), the
 configuration moves and the reroutes of :func:`arm_path` are planned by OMPL instead
@@ -208,12 +209,13 @@ def reroute_cartesian(
     goal: ArmConfig,
 ) -> list[ArmConfig] | None:
     """A joint-space route (:func:`arm_path`, no fallback) replacing the Cartesian
-    ``path`` of a ``moving-tcp`` when that line sweeps the arm through a free object other
-    than those touched at its start or end (the object a reach approaches, the one the
-    hand is next to), e.g. from the carry pose to a pregrasp straight through a
-    neighbouring object; None (keep the line) when it is clear, when the torso moves
-    along it, or when no route is clear either. Leaves the arms and torso wherever the
-    checks put them (the caller resets)."""
+    ``path`` of a ``moving-tcp`` when that line (or, where the line had no IK solution
+    along it, the straight joint-space segment the arm then follows) sweeps the arm
+    through a free object other than those touched at its start or end (the object a
+    reach approaches, the one the hand is next to), e.g. from the carry pose to a
+    pregrasp straight through a neighbouring object; None (keep the line) when it is
+    clear, when the torso moves along it, or when no route is clear either. Leaves the
+    arms and torso wherever the checks put them (the caller resets)."""
     torso = path[0][0]
     if abs(path[-1][0] - torso) > 1e-3:
         return None
@@ -227,6 +229,9 @@ def reroute_cartesian(
     allowed |= touched_objects(world, free)
     others = free - allowed
     hit = False
+    if len(path) <= 2:  # no IK along the line: the straight joint-space segment
+        world.move_joints(**path[0][1])
+        hit = _path_hits(world, arms, path[0][1], path[-1][1], allowed)
     for _t, config in path[1:-1]:
         world.move_joints(**config)
         if touched_objects(world, others):
@@ -308,9 +313,9 @@ def arm_path(
     the final descent may touch what the goal touches (a pregrasp at its object).
     Nothing clear: straight anyway (the arm then pushes what it meets, as an arm without
     a planner would; ``fallback=False``: None). With ``world.arm_motion_planning`` the
-    path is :func:`planned_arm_path` first. A real PR2 plans collision-free arm paths;
-    projection teleports, so plans never see this. Leaves the arms wherever the last check
-    put them (the caller resets)."""
+    path is :func:`planned_arm_path` first. Projection's probes and arms module follow
+    the same path (:mod:`projection._swept_motions`). Leaves the arms wherever the last
+    check put them (the caller resets)."""
     straight = [{a: start[a] for a in arms}, {a: goal[a] for a in arms}]
     if world.arm_motion_planning:
         planned = planned_arm_path(world, arms, start, goal)

@@ -43,6 +43,8 @@ from projection._world import ASSETS, World
 __all__ = [
     "CONTACT_TOLERANCE",
     "PADDING",
+    "QUANTUM",
+    "QUANTUM_ANGLE",
     "ArmChain",
     "CollisionModel",
 ]
@@ -53,11 +55,33 @@ PADDING = 0.02
 #: Penetration (m) beyond which a contact counts (resting contacts report about -1 mm).
 CONTACT_TOLERANCE = 0.001
 _DIGITS = 4  # rounding (m, rad) of the world digest
+#: Quantum (m) of positions, and (rad, about) of orientations and joints, in a model's
+#: :attr:`CollisionModel.coarse_digest`: worlds equal up to these share cached plans.
+QUANTUM = 0.001
+QUANTUM_ANGLE = 0.01
 #: Random configurations sampled to find the self pairs that always touch.
 _SELF_SAMPLES = 200
 _ALWAYS = 0.95  # a pair touching in this fraction of the samples is never checked
 #: Links up to this many geometric links apart in the tree are adjacent (never checked).
 _ADJACENT_DEPTH = 2
+
+
+def _quantised(
+    position: Sequence[float], orientation: Sequence[float], joints: Sequence[float] = ()
+) -> tuple[int, ...]:
+    """A pose (and joint values) as integers: positions in :data:`QUANTUM` steps, the
+    quaternion's components in QUANTUM_ANGLE / 2 steps (a component step of e turns by at
+    most about 2e rad), joints in :data:`QUANTUM_ANGLE` steps. The quaternion's sign is
+    fixed (w >= 0) so that equal rotations quantise alike."""
+    q = list(orientation)
+    if q[3] < 0.0 or (q[3] == 0.0 and q[:3] < [0.0, 0.0, 0.0]):
+        q = [-v for v in q]
+    half = QUANTUM_ANGLE / 2.0
+    return (
+        *(round(v / QUANTUM) for v in position),
+        *(round(v / half) for v in q),
+        *(round(v / QUANTUM_ANGLE) for v in joints),
+    )
 
 
 @dataclass(frozen=True)
@@ -210,6 +234,9 @@ class CollisionModel:
                     raise UnknownName("joint", name, self.links_joints)
         self.known_good = tuple(dict(k) for k in known_good)
         self.digest: tuple[object, ...] = ()
+        self.coarse_digest: tuple[object, ...] = ()
+        # (client, body) -> its movable joint indices (sync reads the world's often)
+        self._movable_joints: dict[tuple[int, int], frozenset[int]] = {}
         self.objects: dict[str, int] = {}
         self.held: dict[str, _Held] = {}
         self._self_pairs: dict[tuple[int, ...], frozenset[tuple[int, int]]] = {}
@@ -291,42 +318,54 @@ class CollisionModel:
         self.close()
 
     # ------------------------------------------------------------------ copying a world
-    def sync(self, world: World) -> None:
+    def sync(self, world: World) -> bool:
         """Copy ``world``'s robot base and joints, kitchen joints and objects (re-created:
-        a cheap createMultiBody each) into the model."""
+        a cheap createMultiBody each) into the model, unless the world is the one last
+        copied (the same :attr:`digest`): then nothing is touched. Whether it copied."""
         c = self.client
         wc = world.client
         src_bodies = (world.robot_body, world.kitchen_body)
-        for src, dst in zip(src_bodies, (self.robot, *self.fixed)):
-            pos, orn = pb.getBasePositionAndOrientation(src, physicsClientId=wc)
-            pb.resetBasePositionAndOrientation(dst, pos, orn, physicsClientId=c)
-            movable = [
-                i
-                for i in range(pb.getNumJoints(src, physicsClientId=wc))
-                if pb.getJointInfo(src, i, physicsClientId=wc)[2] != pb.JOINT_FIXED
-            ]
-            if movable:
-                values = [s[0] for s in pb.getJointStates(src, movable, physicsClientId=wc)]
-                pb.resetJointStatesMultiDof(dst, movable, [[v] for v in values], physicsClientId=c)
-        self._place_proxies()  # a drawer may have moved
+        bodies: list[tuple[tuple[float, ...], tuple[float, ...], list[int], list[float]]] = []
         digest: list[object] = []
+        coarse: list[object] = []
         for src in src_bodies:
             pos, orn = pb.getBasePositionAndOrientation(src, physicsClientId=wc)
             n = pb.getNumJoints(src, physicsClientId=wc)
             joints = [s[0] for s in pb.getJointStates(src, range(n), physicsClientId=wc)]
+            movable = [i for i in range(n) if self._movable(wc, src, i)]
+            bodies.append((pos, orn, movable, [joints[i] for i in movable]))
             digest.append(tuple(round(v, _DIGITS) for v in (*pos, *orn, *joints)))
-        for body in self.objects.values():
-            pb.removeBody(body, physicsClientId=c)
-        self.objects.clear()
-        self.names.clear()
-        self.held.clear()
+            coarse.append(_quantised(pos, orn, joints))
         attachments = world.attachments
-        robot_links = self.links[self.robot]
+        objects = []
         for name, otype in world.objects.items():
             pose = world.object_pose(name)
             link = attachments.get(name)
             place = tuple(round(v, _DIGITS) for v in (*pose.position, *pose.orientation))
             digest.append((name, otype, link, place))
+            coarse.append((name, otype, link, _quantised(pose.position, pose.orientation)))
+            objects.append((name, otype, link, pose))
+        # invariant: equal digests <=> the same world up to rounding (robot, kitchen,
+        # objects, what is held); plan caches key on it
+        full = (self.padding, tuple(digest))
+        if full == self.digest:
+            return False
+        self.digest = full
+        # invariant: equal coarse digests <=> the same world up to QUANTUM (m) and
+        # QUANTUM_ANGLE (rad): plans are reused across them, verified again
+        self.coarse_digest = (self.padding, tuple(coarse))
+        for dst, (pos, orn, movable, values) in zip((self.robot, *self.fixed), bodies):
+            pb.resetBasePositionAndOrientation(dst, pos, orn, physicsClientId=c)
+            if movable:
+                pb.resetJointStatesMultiDof(dst, movable, [[v] for v in values], physicsClientId=c)
+        self._place_proxies()  # a drawer may have moved
+        for body in self.objects.values():
+            pb.removeBody(body, physicsClientId=c)
+        self.objects.clear()
+        self.names.clear()
+        self.held.clear()
+        robot_links = self.links[self.robot]
+        for name, otype, link, pose in objects:
             held = link is not None and link in robot_links
             body = self._add_object(otype, (pose.position, pose.orientation), held)
             self.objects[name] = body
@@ -340,10 +379,22 @@ class CollisionModel:
                 ip, iq = pb.invertTransform(ls[4], ls[5])
                 gp, gq = pb.multiplyTransforms(ip, iq, pose.position, pose.orientation)
                 self.held[name] = _Held(body, index, (tuple(gp), tuple(gq)))
+        return True
 
-        # invariant: equal digests <=> the same world up to rounding (robot, kitchen,
-        # objects, what is held); plan caches key on it
-        self.digest = (self.padding, tuple(digest))
+    def _movable(self, client: int, body: int, joint: int) -> bool:
+        """Whether ``body``'s ``joint`` (in ``client``) is not fixed (memoised per body:
+        a body's joint types never change)."""
+        key = (client, body)
+        movable = self._movable_joints.get(key)
+        if movable is None:
+            n = pb.getNumJoints(body, physicsClientId=client)
+            movable = frozenset(
+                i
+                for i in range(n)
+                if pb.getJointInfo(body, i, physicsClientId=client)[2] != pb.JOINT_FIXED
+            )
+            self._movable_joints[key] = movable
+        return joint in movable
 
     def _add_object(self, otype: str, tf: Tf, held: bool) -> int:
         c = self._c

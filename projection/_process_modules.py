@@ -48,9 +48,14 @@ import pybullet as pb
 import cpl
 import executive
 from executive import Designator, MotionCommand, Pose, ProcessModule, Resource, an, equate
-from executive.events import ObjectPerceived, emit
-from executive.failures import ManipulationGoalNotReached, PtuGoalNotReached
+from executive.events import ObjectPerceived, emit, object_name
+from executive.failures import (
+    ManipulationGoalInCollision,
+    ManipulationGoalNotReached,
+    PtuGoalNotReached,
+)
 from projection._durations import DETECTION_TIME, RobotState, motion_seconds, robot_state
+from projection._swept_motions import arm_motion_sweep
 from projection._world import World
 
 __all__ = [
@@ -69,6 +74,8 @@ __all__ = [
 ]
 
 _PTU_TOLERANCE = 1e-5
+#: Collision modes of a ``moving-tcp`` whose path may touch objects (CRAM's meanings).
+_CONTACTS_ALLOWED = frozenset({"allow-all", "allow-hand"})
 
 
 class CommandDispatch(ProcessModule):
@@ -318,11 +325,36 @@ class GrippersPM(GripperMotions, ProjectionProcessModule):
 
 
 class ArmsPM(ProjectionProcessModule):
-    """``moving-tcp`` -> :meth:`World.move_tcp` (IK with torso resampling; the collision
-    mode is ignored, as in CRAM) and ``moving-arm-joints`` -> :meth:`World.move_joints`.
+    """``moving-tcp`` -> :meth:`World.move_tcp` (IK with torso resampling) and
+    ``moving-arm-joints`` -> :meth:`World.move_joints`.
     No IK solution raises :class:`executive.ManipulationPoseUnreachable`; joint values of
     the wrong count or outside the limits :class:`executive.ManipulationGoalNotReached`;
-    the arms are unchanged on failure."""
+    the arms are unchanged on failure.
+
+    The goal is not merely teleported to: the module computes the path the simulated
+    real arm controller would follow to it (:func:`projection._arm_planner.controller_path`,
+    the same code the real arms module runs: the straight tool line or configuration
+    move, rerouted around free objects, or planned by OMPL when
+    ``World.arm_motion_planning`` is on) and a path that would sweep the robot, or what it
+    holds, through a free object the motion does not own (one it does not touch where it
+    starts or ends, nor the object of the ``picking-up`` or ``placing`` it is part of:
+    the object reached for, the one just released; the knock count's "own") is a predicted
+    failure: :class:`executive.ManipulationGoalInCollision` (``swept=(names...)``), the
+    world left unchanged. A ``moving-tcp`` whose collision mode allows contacts
+    (``allow-all``: grasping, putting, pulling, pushing; ``allow-hand``: lifting) is not
+    checked, as CRAM's collision modes mean: those short straight motions touch their
+    object, its support or the handle by design, and the plans' probes check them. The
+    answers are remembered per world (:func:`projection._swept_motions.arm_motion_sweep`),
+    so a motion a probe checked costs a lookup. The projected duration is that path's at
+    the real robot's joint speeds (its :func:`~projection._arm_planner.leg_seconds`, as
+    the real arms module times it: a planned detour takes longer than the straight line),
+    where a path is computed: when no free object is within the arm's reach nothing can
+    be swept, the path is neither computed nor planned (imagining stays fast), and the
+    straight move's duration (a lower bound) is taken.
+
+    Deliberate difference from CRAM: CRAM's projected arms teleport (only the goal's IK
+    and, on request, its collisions are checked), so a plan imagined there never sees an
+    arm sweep a neighbour over on its way; here it does."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
     commands = frozenset({"move-tcp", "move-joints"})
@@ -331,13 +363,71 @@ class ArmsPM(ProjectionProcessModule):
         super().__init__(world, "arms")
         # the robot's arms, in its description's order
         self.resources = frozenset(Resource.arm(a) for a in world.robot.arm_names)
+        # invariant: the duration (s) of the path of the motion run() last completed,
+        # None before any and after a failure; seconds() reads it once
+        self._path_seconds: float | None = None
 
     def run(self, command: MotionCommand, motion: Designator) -> None:
+        self._path_seconds = None
+        world = self.world
         args: Mapping[str, Any] = command.arguments
+        arms = [a for a in world.arms if args.get(a) is not None]
+        torso = world.torso_height
+        start = {a: world.arm_joints(a) for a in world.arms}
         if command.command == "move-tcp":
             self.world.move_tcp(left=args.get("left"), right=args.get("right"))
         else:
             move_arm_joints(self.world, args)
+        if not arms:
+            return
+        if command.command == "move-tcp" and args.get("collision_mode") in _CONTACTS_ALLOWED:
+            return
+        goal_torso = world.torso_height
+        goal = {a: world.arm_joints(a) for a in arms}
+        sweep = arm_motion_sweep(world, command.command, arms, args, torso, start)
+        swept = tuple(n for n in sweep.swept if n not in _own_objects())
+        if swept:
+            world.move_torso(torso)
+            world.move_joints(**{a: start[a] for a in arms})
+            raise ManipulationGoalInCollision(
+                f"moving the {' and '.join(arms)} arm(s) "
+                f"({command.command}) sweeps through {', '.join(swept)}",
+                arms=tuple(arms),
+                swept=swept,
+            )
+        world.move_torso(goal_torso)
+        world.move_joints(**goal)
+        self._path_seconds = sweep.seconds
+
+    def seconds(self, before: RobotState, after: RobotState) -> float:
+        """The duration of the controller's path (see the class docstring); at least the
+        straight move's (:func:`projection._durations.motion_seconds`)."""
+        path, self._path_seconds = self._path_seconds, None
+        straight = motion_seconds(before, after)
+        return straight if path is None else max(straight, path)
+
+
+#: Actions whose object a motion inside them may move (the knock count's "own" actions).
+_OWN_ACTIONS = frozenset({"picking-up", "placing"})
+
+
+def _own_objects() -> frozenset[str]:
+    """The objects of the ``picking-up``/``placing`` actions the running task is inside
+    (a motion may sweep its own object: the plan-level probes allow it, and the knock
+    count does not count it)."""
+    own: set[str] = set()
+    task = cpl.current_task()
+    while task is not None:
+        desig = executive.action_of(task)
+        if desig is not None and str(desig.type) in _OWN_ACTIONS:
+            obj = desig.get("object")
+            if obj is not None:
+                try:
+                    own.add(object_name(obj))
+                except ValueError:  # an object designator without a name: none owned
+                    pass
+        task = task.parent
+    return frozenset(own)
 
 
 def projection_process_modules(world: World) -> tuple[ProjectionProcessModule, ...]:

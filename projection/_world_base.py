@@ -24,6 +24,7 @@ from kitchens import iai
 from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import yaw_quat as _yaw_quat
+from projection._motion_memo import SweepMemo
 from projection._names import UnknownName
 from projection._objects import object_type
 from robots import pr2
@@ -268,6 +269,9 @@ class WorldBase:
         # arm -> its ArmMotionPlanner (own PyBullet clients), built on first use, closed
         # with the world
         self._arm_planners: dict[str, Any] = {}
+        #: What arm motions' controller paths sweep, remembered for this world (the
+        #: probes and the arms process module ask it; ``projection._swept_motions``).
+        self.sweep_memo = SweepMemo()
         # initial state: one base reset (so the fixed robot is tested against the fixed
         # kitchen from the start), arms in the initial state (parked), torso default,
         # grippers open, head forward
@@ -354,6 +358,20 @@ class WorldBase:
                 return True
             link = self._parent_link[link]
         return ancestor == -1
+
+    def motion_cache_counts(self) -> dict[str, int]:
+        """How often this world's arm-motion answers were reused: ``plan_hits`` /
+        ``plan_misses`` of its arms' OMPL plan caches (``ArmMotionPlanner.plan``),
+        ``sweep_hits`` / ``sweep_misses`` of :attr:`sweep_memo` (the controller paths
+        checked by the probes and the projected arms module). For the bench and the
+        campaign report."""
+        planners = list(self._arm_planners.values())
+        return {
+            "plan_hits": sum(p.cache_hits for p in planners),
+            "plan_misses": sum(p.cache_misses for p in planners),
+            "sweep_hits": self.sweep_memo.hits,
+            "sweep_misses": self.sweep_memo.misses,
+        }
 
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:

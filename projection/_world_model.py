@@ -29,8 +29,9 @@ from executive.failures import (
     ManipulationGoalInCollision,
     PerceptionObjectNotInWorld,
 )
-from projection._arm_planner import controller_path, swept_objects, touched_objects
+from projection._arm_planner import touched_objects
 from projection._objects import object_type as _object_type
+from projection._swept_motions import arm_motion_sweep
 from projection._world import KITCHEN, Contact, World
 
 __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
@@ -39,8 +40,6 @@ __all__ = ["DETACH_SETTLE_STEPS", "STABILITY_THRESHOLD", "ProjectedWorldModel"]
 DETACH_SETTLE_STEPS = 10
 #: How far (m) a placed object may move before the pose counts as unstable (CRAM: 0.2).
 STABILITY_THRESHOLD = 0.2
-#: Entries of a :class:`ProjectedWorldModel`'s memo of sweep checks before it is cleared.
-SWEEP_MEMO_SIZE = 4096
 #: How far (m) the footprints of a placed object and a neighbour may interpenetrate before
 #: the placing pose counts as overlapping it.
 OVERLAP_TOLERANCE = 0.005
@@ -86,11 +85,6 @@ class ProjectedWorldModel:
         #: Whether :meth:`probe_arm_trajectory` also checks the path the arm sweeps
         #: between waypoints (the real controller's path), not the waypoints alone.
         self.swept = swept
-        # sweep checks already made: (arm, start and goal configuration, waypoint, what the
-        # robot holds, the free objects' poses) -> the objects swept through; a probe
-        # repeated from the same state (the imagined runs, a check then its re-check)
-        # costs a lookup. Cleared when it reaches SWEEP_MEMO_SIZE entries.
-        self._sweeps: dict[tuple[Any, ...], list[str]] = {}
         self._robot_links = world.robot_links
 
     @property
@@ -369,8 +363,10 @@ class ProjectedWorldModel:
             others -= touched_objects(world, others)
             if not others:
                 return ProbeResult(True)
-            path = controller_path(world, "move-joints", arms, goals, torso, start)
-            hits = sorted(swept_objects(world, path, others))
+            # the world's answer (remembered: the arms module asks it again when the
+            # motion is executed), restricted to the objects not allowed
+            sweep = arm_motion_sweep(world, "move-joints", arms, goals, torso, start)
+            hits = [n for n in sweep.swept if n in others]
         finally:
             world.restore(snap)
         if hits:
@@ -428,60 +424,12 @@ class ProjectedWorldModel:
         touched where the motion starts or ends) that the real controller's path from
         ``torso``/``start`` to here sweeps the arm (or what it holds) through, sorted.
         The path is :func:`projection._arm_planner.controller_path` in this world, i.e.
-        what the arms module will follow if the world is as believed. Leaves the robot at
-        the goal configuration."""
-        world = self.world
-        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
-        free = {n for n in world.objects if n not in world.attachments} - allowed
-        key = (
-            arm,
-            _rounded(torso, *start[arm], goal_torso, *goal[arm]),
-            _rounded(
-                *(v for a in world.arms if a != arm for v in world.arm_joints(a)),
-                *(world.gripper_opening(a) for a in world.arms),
-            ),
-            _rounded(*waypoint.position, *waypoint.orientation),
-            waypoint.frame,
-            _rounded(*world.robot_pose().position, *world.robot_pose().orientation),
-            tuple(sorted(world.attachments.items())),
-            tuple(
-                (n, _rounded(*p.position, *p.orientation))
-                for n in sorted(free)
-                for p in (world.object_pose(n),)
-            ),
-        )
-        memo = self._sweeps
-        if key in memo:
-            return memo[key]
-        if len(memo) >= SWEEP_MEMO_SIZE:
-            memo.clear()
-        memo[key] = hits = self._swept_uncached(arm, waypoint, torso, start, free)
-        return hits
-
-    def _swept_uncached(
-        self,
-        arm: str,
-        waypoint: Pose,
-        torso: float,
-        start: dict[str, tuple[float, ...]],
-        free: set[str],
-    ) -> list[str]:
-        world = self.world
-        goal_torso, goal = world.torso_height, {arm: world.arm_joints(arm)}
-        others = free - touched_objects(world, free)
-        if others:
-            world.move_torso(torso)
-            world.move_joints(**start)
-            others -= touched_objects(world, others)
-            world.move_torso(goal_torso)
-            world.move_joints(**goal)
-        if not others:
-            return []
-        path = controller_path(world, "move-tcp", [arm], {arm: waypoint}, torso, start)
-        hits = swept_objects(world, path, others)
-        world.move_torso(goal_torso)
-        world.move_joints(**goal)
-        return sorted(hits)
+        what the arms module will follow if the world is as believed; the answer is the
+        world's (:func:`projection._swept_motions.arm_motion_sweep`, remembered in
+        ``World.sweep_memo``), so executing the motion checked here costs a lookup.
+        Leaves the robot at the goal configuration."""
+        sweep = arm_motion_sweep(self.world, "move-tcp", [arm], {arm: waypoint}, torso, start)
+        return [n for n in sweep.swept if n not in allowed]
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:
         """Would an object of ``object_type`` released at ``pose`` stay within
@@ -539,10 +487,6 @@ class ProjectedWorldModel:
 def _allowed(contact: Contact, allowed: frozenset[str]) -> bool:
     names = {contact.body_a, contact.link_a, contact.body_b, contact.link_b} - {"object"}
     return not names.isdisjoint(allowed)
-
-
-def _rounded(*values: float) -> tuple[float, ...]:
-    return tuple(round(float(v), 4) for v in values)
 
 
 def _kitchen_contacts(

@@ -54,6 +54,10 @@ class DemoReport:
     #: The objects real robot motions knocked, measured on the true world
     #: (:class:`aiocram.knocks.KnockWatcher`; ``None``: not watched).
     knocks: KnockReport | None = None
+    #: Arm-motion answers reused and computed in the run, by world ("belief": the
+    #: probes and the imagined runs; "true": the real robot's controller):
+    #: ``projection.World.motion_cache_counts`` (issue 26).
+    motion_cache: dict[str, dict[str, int]] = field(default_factory=dict)
 
     @property
     def robot(self) -> str:
@@ -98,6 +102,7 @@ class DemoReport:
             ),
             # issue 26: "knocked" lists each knocked object once, "knocks" every knock
             **(KnockReport() if self.knocks is None else self.knocks).to_json(),
+            "motion_cache": {w: dict(c) for w, c in self.motion_cache.items()},
         }
 
 

@@ -320,6 +320,10 @@ def run_demo(
             foresight=foresight_records(root),
             distances=dict(transports.distances),
             knocks=knocked,
+            motion_cache={
+                "belief": belief_world.motion_cache_counts(),
+                "true": true_world.motion_cache_counts(),
+            },
         )
     finally:
         restore_logging()

@@ -398,9 +398,9 @@ def test_plans_are_remembered_per_world_state(sink: World) -> None:
     try:
         first = planner.plan(start, goal, seed=3)
         again = planner.plan(start, goal, seed=3)
-        assert planner.cache_hits == 1
+        assert (planner.cache_hits, planner.cache_misses) == (1, 1)
+        assert again is first  # the same world, the same query: nothing checked again
         assert np.array_equal(first.positions, again.positions)
-        assert again.checks < first.checks  # only the re-verification
         # the cereal moved: another world, planned again
         moved = sink.object_pose("cereal-9")
         x, y, z = moved.position
@@ -416,3 +416,74 @@ def test_plans_are_remembered_per_world_state(sink: World) -> None:
         assert planner.cache_hits == 2
     finally:
         planner.close()
+
+
+def test_a_world_equal_up_to_the_quanta_reuses_the_plan_verified(sink: World) -> None:
+    """Plans are keyed by the world quantised (1 mm, 0.01 rad): an obstacle that moved by
+    a fraction of a millimetre (a settling object) hits the cache, with the remembered path
+    re-verified; one moved by centimetres is planned afresh. The robot's base pose is part
+    of the key."""
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    try:
+        first = planner.plan(start, goal, seed=3)
+        pose = sink.object_pose("cereal-9")
+        x, y, z = pose.position
+        sink.set_object_pose("cereal-9", Pose((x + 0.0002, y, z), pose.orientation))
+        planner.sync(sink)
+        jittered = planner.plan(start, goal, seed=3)
+        assert (planner.cache_hits, planner.cache_misses) == (1, 1)
+        assert jittered is not first and jittered.checks > 0  # verified in the exact world
+        assert np.array_equal(first.positions, jittered.positions)
+        # the same jittered world again: the identical trajectory, nothing checked
+        assert planner.plan(start, goal, seed=3) is jittered
+        assert planner.cache_hits == 2
+        sink.set_object_pose("cereal-9", Pose((x, y + 0.03, z), pose.orientation))
+        planner.sync(sink)
+        planner.plan(start, goal, seed=3)
+        assert (planner.cache_hits, planner.cache_misses) == (2, 2)
+        # back, but the robot's base 3 mm further: another world for every obstacle
+        sink.set_object_pose("cereal-9", pose)
+        base = sink.robot_pose()
+        sink.drive(Pose.from_xyz_yaw(base.position[0] + 0.003, base.position[1], 0.0, base.yaw))
+        planner.sync(sink)
+        planner.plan(start, goal, seed=3)
+        assert (planner.cache_hits, planner.cache_misses) == (2, 3)
+        sink.drive(base)
+        planner.sync(sink)
+        assert planner.plan(start, goal, seed=3) is not first  # re-verified, hence a copy
+        assert (planner.cache_hits, planner.cache_misses) == (3, 3)
+    finally:
+        planner.close()
+
+
+def test_a_synced_world_that_did_not_change_is_not_copied_again(sink: World) -> None:
+    planner = _planner(sink)
+    try:
+        bodies = dict(planner.model.objects)
+        assert planner.model.sync(sink) is False  # the same world: nothing re-created
+        assert planner.model.objects == bodies
+        pose = sink.object_pose("cup-1")
+        sink.set_object_pose("cup-1", Pose((pose.position[0] + 0.01, *pose.position[1:])))
+        assert planner.model.sync(sink) is True
+    finally:
+        planner.close()
+
+
+def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
+    from projection._arm_planner import arm_path
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    sink.arm_motion_planning = True
+    assert sink.motion_cache_counts() == {
+        "plan_hits": 0,
+        "plan_misses": 0,
+        "sweep_hits": 0,
+        "sweep_misses": 0,
+    }
+    first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+    sink.move_joints(right=start)
+    again = arm_path(sink, ["right"], {"right": start}, {"right": goal})
+    assert first == again
+    counts = sink.motion_cache_counts()
+    assert (counts["plan_hits"], counts["plan_misses"]) == (1, 1)

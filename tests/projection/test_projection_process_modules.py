@@ -168,7 +168,8 @@ def test_opening_gripper_and_gripping_a_cup(mrun: Any, sink: World) -> None:
         await perform(a.motion(type="closing-gripper", gripper="right"))
         await perform(a.motion(type="opening", gripper="right"))
         assert sink.gripper_opening("right") == pytest.approx(0.1)
-        await perform(a.motion(type="moving-tcp", right_pose=grasp))
+        # straight at the cup, its fingers around it: a grasping motion (contacts allowed)
+        await perform(a.motion(type="moving-tcp", right_pose=grasp, collision_mode="allow-all"))
         await perform(a.motion(type="gripping", gripper="right", effort=50))
 
     run_projected(mrun, sink, body)
