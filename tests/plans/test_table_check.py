@@ -11,7 +11,7 @@ import pytest
 from conftest import PR2, cup_world_for, make_robot
 
 import plans
-from executive import Pose, an, perform
+from executive import ObjectUnfetchable, PerceptionObjectNotFound, Pose, an, perform
 from executive.testing import InMemoryWorld
 from plans.demo import ObjectOutcome, place_location, recheck_table
 from plans.island_check import NEAR_PLACED, PlacedState, check_placed, tilt_deg
@@ -148,3 +148,143 @@ def test_check_placed_rejects_bad_input_before_moving() -> None:
     with pytest.raises(TypeError, match="name: \\(type, placing Pose\\)"):
         robot.run(check_placed, {"cup-1": PLACED})
     assert robot.calls("navigation") == []
+
+
+# --------------------------------------------- what the look at the whole table misses
+def test_an_object_the_first_look_misses_is_claimed_after_the_aimed_look() -> None:
+    # every detect of the look at the whole table fails (two detects, with their own
+    # retries); the look aimed at the cup's placing pose then sees it in place
+    world = _placed_cup_world(PLACED)
+    robot = make_robot(world, perception={i: PerceptionObjectNotFound for i in range(1, 11)})
+    outcome = ObjectOutcome("cup", "cup-1", success=True)
+    robot.run(recheck_table, {"cup": outcome}, {"cup-1": PLACED})
+    assert outcome.success and outcome.failure is None
+    assert outcome.retries.get("table-aimed") == 1
+    assert "table-unseen" not in outcome.retries and "table-floor" not in outcome.retries
+    assert len(robot.calls("navigation")) == 2  # the look at the table, then its own
+
+
+def test_an_object_no_look_sees_is_looked_for_on_the_floor_then_not_claimed() -> None:
+    world = _placed_cup_world(PLACED)
+    del world.objects["cup-1"]
+    robot = make_robot(world)
+    outcome = ObjectOutcome("cup", "cup-1", success=True)
+    robot.run(recheck_table, {"cup": outcome}, {"cup-1": PLACED})
+    assert not outcome.success
+    assert outcome.retries.get("table-aimed") == 1
+    assert outcome.retries.get("table-floor") == 1
+    assert outcome.retries.get("table-unseen") == 1
+
+
+def _spoon_spot(true: Any) -> Pose:
+    """A spot on the island for the spoon, near its edge towards the room (map)."""
+    ((_, ly, _), (hx, hy, hz)) = true.link_aabb("kitchen_island_surface")
+    return Pose((hx - 0.25, (ly + hy) / 2, hz + 0.02))
+
+
+def test_a_spoon_in_place_the_first_look_misses_is_still_claimed(
+    mrun: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the simulated real robot: the true camera does not see the spoon until the look
+    aimed at its own placing pose (injected: every detect of it fails before that look),
+    which sees it in place; it stays claimed and is where it was placed."""
+    true, belief = make_world_pair(0, belief_objects="exact")
+    try:
+        spot = _spoon_spot(true)
+        true.set_object_pose("spoon-1", spot)
+        settle(true, 120)
+        placed = true.object_pose("spoon-1")
+        belief.set_object_pose("spoon-1", placed)
+        hidden = {"spoon": True}
+        real_detect, real_look = true.detect, plans.island_check.look_for_placed
+
+        def detect(designator: Any, *args: Any, **kwargs: Any) -> Any:
+            if hidden["spoon"] and designator.get("type") == "spoon":
+                raise PerceptionObjectNotFound("injected: the first look misses the spoon")
+            return real_detect(designator, *args, **kwargs)
+
+        async def aimed(*args: Any) -> Any:
+            hidden["spoon"] = False
+            return await real_look(*args)
+
+        monkeypatch.setattr(true, "detect", detect)
+        monkeypatch.setattr(plans.island_check, "look_for_placed", aimed)
+        outcome = ObjectOutcome("spoon", "spoon-1", success=True)
+
+        async def main() -> None:
+            async with with_real_robot(true, belief, FaultProfile.none()):
+                await recheck_table({"spoon": outcome}, {"spoon-1": placed})
+
+        mrun(main)
+        assert not hidden["spoon"]  # the aimed look ran
+        assert outcome.success and outcome.failure is None, outcome.retries
+        assert outcome.retries.get("table-aimed") == 1
+        assert not set(outcome.retries) & {"table-unseen", "table-fixed", "table-unfixed"}
+        (x, y, _), (px, py, _) = true.object_pose("spoon-1").position, placed.position
+        assert ((x - px) ** 2 + (y - py) ** 2) ** 0.5 <= NEAR_PLACED
+    finally:
+        true.close()
+        belief.close()
+
+
+def _knock_off(true: Any, placed: Pose) -> None:
+    """The cup off the island onto the floor next to it, on the room's side."""
+    (_, (hx, _, _)) = true.link_aabb("kitchen_island_surface")
+    true.set_object_pose("cup-1", Pose((hx + 0.2, float(placed.position[1]), 0.05)))
+    settle(true, 120)
+
+
+def test_a_delivered_cup_knocked_to_the_floor_is_found_there_and_fixed(mrun: Any) -> None:
+    """Knocked off the island onto the floor next to it: the look at the table and the
+    aimed look miss it, the floor look around its placing pose sees it; it is picked up
+    from the floor, placed again and, seen in place, claimed: the true world agrees."""
+    outcome, placed, end, on_island = _deliver_cup_then(mrun, _knock_off)
+    assert outcome.retries.get("table-floor") == 1  # looked on the floor
+    assert outcome.retries.get("table-fixed") == 1, outcome.retries
+    assert outcome.success and outcome.failure is None
+    (x, y, _), (px, py, _) = end.position, placed.position
+    assert on_island and tilt_deg(end) < 15.0
+    assert ((x - px) ** 2 + (y - py) ** 2) ** 0.5 <= NEAR_PLACED
+
+
+def test_a_delivered_cup_knocked_to_the_floor_and_not_fixable_is_not_claimed(
+    mrun: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The same, but its pick-up from the floor fails for good (injected: ``fetching``
+    gives up): it is not claimed, and it is indeed not delivered."""
+
+    async def unfetchable(perceived: Any, _target: Pose) -> bool:
+        raise ObjectUnfetchable(object=perceived)
+
+    monkeypatch.setattr(plans.demo, "_pick_and_place_again", unfetchable)
+    outcome, _placed, _end, on_island = _deliver_cup_then(mrun, _knock_off)
+    assert outcome.retries.get("table-floor") == 1
+    assert outcome.retries.get("table-unfixed") == 1
+    assert not outcome.success and isinstance(outcome.failure, ObjectUnfetchable)
+    assert not on_island
+
+
+def test_a_fix_is_claimed_only_when_the_look_after_it_sees_it_in_place(
+    mrun: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Pushed, fixed, and pushed again right after its placing (injected before the look
+    that verifies the fix): that look sees it displaced, so it is not claimed."""
+    box: dict[str, Any] = {}
+    real_look_again = plans.island_check.look_again
+
+    def push(true: Any, _placed: Pose) -> None:
+        box["true"] = true
+        x, y, z = true.object_pose("cup-1").position
+        true.set_object_pose("cup-1", Pose((x, y + 0.25, z)))
+        settle(true, 120)
+
+    async def pushed_again(name: str, otype: str, pose: Pose) -> Any:
+        push(box["true"], pose)
+        return await real_look_again(name, otype, pose)
+
+    monkeypatch.setattr(plans.demo, "look_again", pushed_again)
+    outcome, placed, end, _on_island = _deliver_cup_then(mrun, push)
+    assert outcome.retries.get("table-unfixed") == 1, outcome.retries
+    assert not outcome.success and outcome.failure is not None
+    (x, y, _), (px, py, _) = end.position, placed.position
+    assert ((x - px) ** 2 + (y - py) ** 2) ** 0.5 > NEAR_PLACED  # indeed not delivered
