@@ -196,7 +196,8 @@ def test_a_spoon_in_place_the_first_look_misses_is_still_claimed(
         placed = true.object_pose("spoon-1")
         belief.set_object_pose("spoon-1", placed)
         hidden = {"spoon": True}
-        real_detect, real_look = true.detect, plans.island_check.look_for_placed
+        real_detect = true.detect
+        real_look = getattr(plans.island_check, "look_for_placed", None)
 
         def detect(designator: Any, *args: Any, **kwargs: Any) -> Any:
             if hidden["spoon"] and designator.get("type") == "spoon":
@@ -204,11 +205,12 @@ def test_a_spoon_in_place_the_first_look_misses_is_still_claimed(
             return real_detect(designator, *args, **kwargs)
 
         async def aimed(*args: Any) -> Any:
+            assert real_look is not None
             hidden["spoon"] = False
             return await real_look(*args)
 
         monkeypatch.setattr(true, "detect", detect)
-        monkeypatch.setattr(plans.island_check, "look_for_placed", aimed)
+        monkeypatch.setattr(plans.island_check, "look_for_placed", aimed, raising=False)
         outcome = ObjectOutcome("spoon", "spoon-1", success=True)
 
         async def main() -> None:
@@ -270,7 +272,7 @@ def test_a_fix_is_claimed_only_when_the_look_after_it_sees_it_in_place(
     """Pushed, fixed, and pushed again right after its placing (injected before the look
     that verifies the fix): that look sees it displaced, so it is not claimed."""
     box: dict[str, Any] = {}
-    real_look_again = plans.island_check.look_again
+    real_look_again = getattr(plans.island_check, "look_again", None)
 
     def push(true: Any, _placed: Pose) -> None:
         box["true"] = true
@@ -280,9 +282,10 @@ def test_a_fix_is_claimed_only_when_the_look_after_it_sees_it_in_place(
 
     async def pushed_again(name: str, otype: str, pose: Pose) -> Any:
         push(box["true"], pose)
+        assert real_look_again is not None
         return await real_look_again(name, otype, pose)
 
-    monkeypatch.setattr(plans.demo, "look_again", pushed_again)
+    monkeypatch.setattr(plans.demo, "look_again", pushed_again, raising=False)
     outcome, placed, end, _on_island = _deliver_cup_then(mrun, push)
     assert outcome.retries.get("table-unfixed") == 1, outcome.retries
     assert not outcome.success and outcome.failure is not None
