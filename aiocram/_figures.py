@@ -377,7 +377,8 @@ class CostmapRecorder(cpl.Instrument):
             (
                 p.split("#")[0]
                 for p in reversed(task.path)
-                if p.split("#")[0] in ("search-for-object", "fetch", "deliver", "transport")
+                if p.split("#")[0]
+                in ("search-for-object", "fetch", "deliver", "transport", "check-table")
             ),
             "navigate",
         )
@@ -400,7 +401,7 @@ class CostmapRecorder(cpl.Instrument):
         self, engine: Any, out_dir: Path, limit: int = 6, part: tuple[int, int] = (0, 1)
     ) -> list[Path]:
         """Draw up to ``limit`` figures, named ``costmap-K-STEP-OBJECT.png`` (``STEP``:
-        search, fetch or deliver): the chains where a navigation failed first, then one
+        search, fetch, deliver or check-table): the chains where a navigation failed first, then one
         per object and step. A figure that cannot be drawn is reported on
         stderr and skipped (a picture never fails the demo). ``part=(i, n)``: only the
         figures with ``(K - 1) % n == i`` (for drawing them in n processes at once)."""

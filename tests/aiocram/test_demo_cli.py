@@ -118,7 +118,7 @@ def test_demo_with_one_object_writes_everything(tmp_path):
         assert (out / name).stat().st_size > 100, name
     costmaps = [n for n in names if n.startswith("costmap-")]
     assert costmaps and all(
-        re.fullmatch(r"costmap-\d+-(search|fetch|deliver|transport)-[a-z0-9-]+\.png", n)
+        re.fullmatch(r"costmap-\d+-(search|fetch|deliver|transport|check-table)-[a-z0-9-]+\.png", n)
         for n in costmaps
     ), costmaps
     # every line fits 80 columns, but for file paths (kept whole to be copied)
