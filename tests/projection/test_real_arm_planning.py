@@ -226,3 +226,29 @@ def test_the_timed_path_of_a_straight_move_is_at_joint_speed(scene: tuple[World,
     ]
     assert timed.duration == pytest.approx(sum(legs))
     assert true.arm_joints("right") == pytest.approx(start["right"])
+
+
+def test_an_object_the_robot_has_not_recognised_is_an_obstacle_too(
+    empty_hand: tuple[World, World],
+) -> None:
+    """A cup the belief lacks (perception never reported it) right where the plan in the
+    belief alone would move the hand: the real robot's plan still goes around it (the
+    stand-in for the depth camera's occupancy map), and the cup stays where it is."""
+    true, belief = empty_hand
+    start = true.arm_joints("right")
+    torso = true.torso_height
+    _pre, goal, _grasp = _pregrasp(true)
+    planner = _planner(belief, "right")
+    planner.sync(belief)
+    alone = [tuple(float(v) for v in q) for q in planner.plan(start, goal, seed=1).positions]
+    true.move_joints(right=alone[len(alone) // 2])
+    true.spawn_object("cup-9", "cup", Pose(true.link_pose(TOOL).position), allow_overlap=True)
+    path = [(torso, {"right": q}) for q in alone]
+    assert swept_objects(true, path, {"cup-9"}) == {"cup-9"}
+    true.move_joints(right=start)
+    cup = true.object_pose("cup-9")
+    _run(true, belief, a.motion(type="moving-arm-joints", right_joint_states=goal))
+    assert true.arm_joints("right") == pytest.approx(goal, abs=1e-9)
+    assert true.motion_planning_fallbacks == 0
+    assert true.object_pose("cup-9").isclose(cup, 1e-3, 1e-2)
+    assert "cup-9" not in belief.objects  # the belief is left as it was
