@@ -228,13 +228,18 @@ def test_the_timed_path_of_a_straight_move_is_at_joint_speed(scene: tuple[World,
     assert true.arm_joints("right") == pytest.approx(start["right"])
 
 
-def test_an_object_the_robot_has_not_recognised_is_an_obstacle_too(
-    empty_hand: tuple[World, World],
+@pytest.mark.parametrize("believed", [False, True], ids=["unrecognised", "misplaced"])
+def test_an_object_where_the_belief_does_not_have_it_is_an_obstacle_too(
+    empty_hand: tuple[World, World], believed: bool
 ) -> None:
-    """A cup the belief lacks (perception never reported it) right where the plan in the
-    belief alone would move the hand: the real robot's plan still goes around it (the
-    stand-in for the depth camera's occupancy map), and the cup stays where it is."""
+    """A cup right where the plan in the belief alone would move the hand, that the
+    belief lacks (perception never reported it) or places far away: the real robot's
+    plan still goes around it (the stand-in for the depth camera's occupancy map), and
+    the cup stays where it is. The belief is left as it was."""
     true, belief = empty_hand
+    elsewhere = Pose((-1.0, 0.0, 0.05))  # behind the robot, out of the arm's reach
+    if believed:
+        belief.spawn_object("cup-9", "cup", elsewhere)
     start = true.arm_joints("right")
     torso = true.torso_height
     _pre, goal, _grasp = _pregrasp(true)
@@ -251,4 +256,8 @@ def test_an_object_the_robot_has_not_recognised_is_an_obstacle_too(
     assert true.arm_joints("right") == pytest.approx(goal, abs=1e-9)
     assert true.motion_planning_fallbacks == 0
     assert true.object_pose("cup-9").isclose(cup, 1e-3, 1e-2)
-    assert "cup-9" not in belief.objects  # the belief is left as it was
+    if believed:
+        assert belief.object_pose("cup-9").isclose(elsewhere, 1e-9, 1e-9)
+    else:
+        assert "cup-9" not in belief.objects
+    assert "cup-9~seen" not in belief.objects
