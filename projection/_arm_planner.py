@@ -514,6 +514,8 @@ def _plan_arms(
         times = [0.0]
         planned = False
         for arm in arms:
+            if all(abs(p - q) < 1e-9 for p, q in zip(start[arm], goal[arm])):
+                continue  # this arm stays: nothing to plan (its start contacts are not ours)
             planner = _planner(model, arm)
             planner.sync(model)
             try:
