@@ -23,13 +23,7 @@ from executive.failures import (
     PerceptionObjectNotFound,
     PtuGoalNotReached,
 )
-from projection._arm_planner import (
-    along_configs,
-    clear_ik,
-    controller_path,
-    imagined_goal,
-    leg_seconds,
-)
+from projection._arm_planner import clear_ik, controller_trajectory, imagined_goal
 from projection._base_planner import along_base, base_path
 from projection._process_modules import (
     CommandDispatch,
@@ -356,8 +350,12 @@ class RealArmsPM(RealProcessModule):
     """``moving-tcp`` (the true world's IK with torso resampling; an ``ik`` fault or no
     solution raises :class:`executive.ManipulationPoseUnreachable` before moving) and
     ``moving-arm-joints`` (bad values: :class:`executive.ManipulationGoalNotReached`),
-    at :data:`ARM_JOINT_VELOCITY` and :data:`TORSO_VELOCITY`. No collision checks: the arm
-    pushes what it meets. A drop armed by a grip makes the held object fall part of the
+    along the controller's path in time (:func:`projection._arm_planner.controller_trajectory`:
+    free motions planned by OMPL in the belief world and following the planned
+    trajectory's timing, contact motions along the straight tool line at
+    :data:`ARM_JOINT_VELOCITY` and :data:`TORSO_VELOCITY`). No collision checks on the
+    way: the arm pushes what it meets (an object the belief lacks or misplaces).
+    A drop armed by a grip makes the held object fall part of the
     way; the motion then ends and raises :class:`executive.GripperClosedCompletely`."""
 
     motion_types = frozenset({"moving-tcp", "moving-arm-joints"})
@@ -384,12 +382,11 @@ class RealArmsPM(RealProcessModule):
             clear_ik(world, arms, args, torso, start)
         else:
             move_arm_joints(world, args)
-        path = controller_path(world, command.command, arms, args, torso, start)
-        legs = [leg_seconds(u, v) for u, v in itertools.pairwise(path)]
-        duration = sum(legs)
+        timed = controller_trajectory(world, command.command, arms, args, torso, start, body.belief)
+        duration = timed.duration
 
         def pose_at(s: float) -> None:
-            t, config = along_configs(path, legs, s)
+            t, config = timed.at(s * duration)
             world.move_torso(t)
             world.move_joints(**config)
 

@@ -259,10 +259,11 @@ class WorldBase:
         self._attached: dict[str, tuple[str, _Tf]] = {}
         self._base: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._closed = False
-        #: Whether the simulated controller (``projection._arm_planner.arm_path``) plans
-        #: free arm motions with OMPL (``projection._motion_planner``) rather than the
-        #: straight line and its raised-via detours. Off by default (issue 26 in progress).
-        self.arm_motion_planning = False
+        #: Whether the simulated controller (``projection._arm_planner``) plans free arm
+        #: motions with OMPL (``projection._motion_planner``) rather than the straight
+        #: line and its raised-via detours. On by default: the real robot plans every free
+        #: arm motion (``controller_trajectory``) in its belief world; off, the old router.
+        self.arm_motion_planning = True
         #: Planned motions that fell back to the old router (OMPL found no path, or the
         #: start or goal was in collision), each logged.
         self.motion_planning_fallbacks = 0

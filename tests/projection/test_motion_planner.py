@@ -301,14 +301,16 @@ def test_one_model_serves_both_arms() -> None:
             assert expected  # the right arm can hit the body and the left arm
 
 
-def test_the_controller_plans_free_motions_only_when_asked(sink: World) -> None:
-    """``World.arm_motion_planning`` (off by default) makes the simulated controller's
+def test_the_controller_plans_free_motions_when_planning_is_on(sink: World) -> None:
+    """``World.arm_motion_planning`` (on by default) makes the simulated controller's
     configuration moves OMPL paths: the carry -> pregrasp move that the straight line and
-    the raised-via detours route through the kitchen or the robot's own body is clear."""
+    the raised-via detours (the flag off) route through the kitchen or the robot's own
+    body is clear."""
     from projection._arm_planner import arm_path, swept_objects
 
     start, goal = sink.arm_joints("right"), _pregrasp(sink)
-    assert sink.arm_motion_planning is False
+    assert sink.arm_motion_planning is True
+    sink.arm_motion_planning = False
     planner = _planner(sink)
     try:
         routed = arm_path(sink, ["right"], {"right": start}, {"right": goal})

@@ -93,10 +93,16 @@ def test_without_the_neighbour_the_same_reach_passes(pair: tuple[World, World]) 
     )
 
 
-def test_the_rejected_reach_really_pushes_the_neighbour(pair: tuple[World, World]) -> None:
-    """The truth behind the check: the real arm, sent along that reach anyway, moves the
-    box (the controller's own rerouting finds no clear way around it)."""
+@pytest.mark.parametrize("planning", [False, True], ids=["router", "planned"])
+def test_the_rejected_reach_really_pushes_the_neighbour(
+    pair: tuple[World, World], planning: bool
+) -> None:
+    """The truth behind the check: the real arm of the old controller (motion planning
+    off), sent along that reach anyway, moves the box (its rerouting finds no clear way
+    around it); with OMPL planning the reach (a free motion, the default) it goes around
+    the box, which stays put."""
     true, belief = pair
+    true.arm_motion_planning = planning
     _add_neighbour(true, belief)
     start = true.object_pose(NEIGHBOUR)
 
@@ -107,7 +113,8 @@ def test_the_rejected_reach_really_pushes_the_neighbour(pair: tuple[World, World
                 await perform(a.motion(type="moving-tcp", right_pose=pose))
 
     cpl.run(main, clock=MockClock())
-    assert math.dist(true.object_pose(NEIGHBOUR).position, start.position) > 0.01
+    moved = math.dist(true.object_pose(NEIGHBOUR).position, start.position)
+    assert (moved < 0.005) if planning else (moved > 0.01)
 
 
 def test_swept_must_be_a_bool(pair: tuple[World, World]) -> None:
