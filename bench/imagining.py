@@ -86,7 +86,7 @@ def child_imagining(seed: int) -> dict[str, Any]:
     from aiocram.demo import DemoConfig, run_demo
 
     clock = _Clock()
-    reasoning.time = clock  # type: ignore[assignment]
+    reasoning.time = clock  # type: ignore[assignment,attr-defined]
     report = run_demo(DemoConfig(seed=seed, live=False))
     cpu = [float(report.imagined_wall_s.get(n, 0.0)) for n in report.config.objects]
     walls = [b - a for a, b in zip(clock.walls[::2], clock.walls[1::2], strict=False)]
