@@ -69,7 +69,7 @@ def child_projected(seed: int) -> dict[str, Any]:
         projection.set_up_scene(world, KITCHEN.demo_objects, seed=seed, settle_steps=0)
         outcomes = cpl.run(main, clock=MockClock())
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        counts = getattr(world, "motion_cache_counts", dict)()
+        counts: dict[str, int] = getattr(world, "motion_cache_counts", dict)()
     finally:
         world.close()
     return {
