@@ -6,8 +6,10 @@ same run.
     python bench/projection_demo.py [--seeds 5] [--planning] [--profile]
 
 ``--planning``: with ``World.arm_motion_planning`` on (the arm paths planned by OMPL);
-each line then also shows the runs' arm-motion cache counts
+each line also shows the runs' arm-motion cache counts
 (``World.motion_cache_counts``: OMPL plans and controller-path sweeps reused / computed).
+The CPU (process) seconds are printed beside the wall time: the steadier figure where
+other processes share the cores. ``bench/imagining.py`` compares two trees interleaved.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from kitchens.iai import DESCRIPTION as KITCHEN
 
 def run_demo(
     seed: int, objects: tuple[str, ...], planning: bool = False
-) -> tuple[float, int, dict[str, int]]:
+) -> tuple[float, int, dict[str, int], float]:
     world = projection.World(seed=seed)
     world.arm_motion_planning = planning
 
@@ -36,13 +38,13 @@ def run_demo(
         async with projection.with_projected_robot(world):
             return await plans.table_setting(objects)
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     projection.set_up_scene(world, objects, seed=seed, settle_steps=0)
     outcomes = cpl.run(main, clock=MockClock())
-    elapsed = time.perf_counter() - start
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
     counts = world.motion_cache_counts()
     world.close()
-    return elapsed, sum(o.success for o in outcomes.values()), counts
+    return elapsed, sum(o.success for o in outcomes.values()), counts, cpu
 
 
 def raw_scene_load() -> float:
@@ -71,13 +73,14 @@ def main() -> None:
     print(f"baseline: raw PyBullet scene load (connect + 2 URDFs), median {base:.3f} s")
     for label, objects in (("bowl transport", ("bowl",)), ("full demo", KITCHEN.demo_objects)):
         runs = [run_demo(seed, objects, args.planning) for seed in range(1, args.seeds + 1)]
-        times = [t for t, _, _ in runs]
-        counts = {k: sum(c[k] for _, _, c in runs) for k in runs[0][2]}
+        times = [t for t, _, _, _ in runs]
+        counts = {k: sum(c[k] for _, _, c, _ in runs) for k in runs[0][2]}
         print(
             f"{label:15s} median {statistics.median(times):.3f} s  "
             f"min {min(times):.3f}  max {max(times):.3f}  "
             f"ratio {statistics.median(times) / base:5.1f}x scene load  "
-            f"delivered {[n for _, n, _ in runs]} of {len(objects)}  "
+            f"cpu median {statistics.median(c for *_, c in runs):.3f} s  "
+            f"delivered {[n for _, n, _, _ in runs]} of {len(objects)}  "
             f"cache {counts}"
         )
     if args.profile:

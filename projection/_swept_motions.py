@@ -23,6 +23,7 @@ import pybullet as pb
 from executive import Pose
 from projection._arm_planner import (
     Config,
+    cartesian_path,
     controller_path,
     leg_seconds,
     swept_objects,
@@ -113,8 +114,14 @@ def arm_motion_sweep(
         # the router, so where the router's path sweeps nothing the planned one cannot
         # either: no plan needed to know it
         world.arm_motion_planning = False
-        path: list[Config] = controller_path(world, command, arms, args, torso, dict(start))
-        hits = swept_objects(world, path, others)
+        line = (
+            _tool_line(world, arms, args, torso, start, others) if command == "move-tcp" else None
+        )
+        if line is not None:
+            path, hits = line
+        else:
+            path = controller_path(world, command, arms, args, torso, dict(start))
+            hits = swept_objects(world, path, others)
         if hits and planning:
             world.arm_motion_planning = True
             path = controller_path(world, command, arms, args, torso, dict(start))
@@ -127,6 +134,51 @@ def arm_motion_sweep(
     sweep = Sweep(tuple(sorted(hits)), seconds, len(path))
     memo.put(key, sweep)
     return sweep
+
+
+def _tool_line(
+    world: World,
+    arms: Sequence[str],
+    args: Mapping[str, Any],
+    torso: float,
+    start: Mapping[str, tuple[float, ...]],
+    others: set[str],
+) -> tuple[list[Config], set[str]] | None:
+    """The router's path of a ``move-tcp`` and what it sweeps of ``others``, where that
+    is known from the straight tool line alone; None otherwise (the robot is then back at
+    the goal configuration, for :func:`controller_path`).
+
+    :func:`controller_path` computes the tool line (:func:`cartesian_path`) and hands it
+    to :func:`reroute_cartesian`, which keeps it (returns None) when the torso ends more
+    than 1 mm from ``torso``, or when no intermediate configuration of the line, at the
+    start's torso height, touches a free object not touched at the start or end; then
+    :func:`swept_objects` samples the line again, every configuration and finer. So
+    where the torso ends elsewhere the path is the line whatever it sweeps, and where the
+    torso stays at ``torso`` all along and the line sweeps none of ``others`` (the free
+    objects within the arm's reach that the start and goal do not touch; the rest is
+    beyond reach of any configuration) the reroute would have found nothing either: the
+    path is the line, and its sweep is empty. The reroute's own pass over the line (a
+    contact query per configuration) is saved; the answer is the same. A line without
+    IK along it (two configurations: the reroute then samples the joint-space segment
+    differently) or one that sweeps something: None."""
+    goal = {a: world.arm_joints(a) for a in arms}
+    goal_torso = world.torso_height
+    world.move_torso(torso)
+    world.move_joints(**{a: start[a] for a in arms})
+    first: Config = (torso, {a: start[a] for a in arms})
+    line = cartesian_path(world, arms, args, first, (goal_torso, goal))
+    known: tuple[list[Config], set[str]] | None = None
+    if len(line) > 2:
+        if abs(line[-1][0] - torso) > 1e-3:  # the reroute keeps such a line as it is
+            known = (line, swept_objects(world, line, others))
+        elif all(t == torso for t, _c in line[:-1]) and abs(line[-1][0] - torso) < 1e-12:
+            hits = swept_objects(world, line, others)
+            if not hits:
+                known = (line, hits)
+    if known is None:
+        world.move_torso(goal_torso)
+        world.move_joints(**goal)
+    return known
 
 
 def _within_reach(
