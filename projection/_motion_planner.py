@@ -71,6 +71,8 @@ from projection._collision_model import (
 __all__ = [
     "ACCELERATION",
     "CACHE_SIZE",
+    "DEEPEN_TOLERANCE",
+    "END_CONTACT_DEPTH",
     "ESCAPE",
     "MAX_CHECKS",
     "RESOLUTION",
@@ -95,6 +97,13 @@ TIMEOUT = 5.0
 ACCELERATION = 2.0
 #: Distance (rad, L2) from the start or goal within which the exact geometry decides.
 ESCAPE = 0.2
+#: How much deeper (m) than at the start or goal a contact present there may get on the
+#: way (:meth:`_Checker.tolerate_end_contacts`): the jitter of Bullet's contact depths.
+DEEPEN_TOLERANCE = 0.002
+#: Deepest penetration (m) of a contact at the start or goal that may persist (a slight
+#: one: an upper arm or a held object resting against an object); deeper, the start or
+#: goal is in collision. Self contacts persist at any depth (see tolerate_end_contacts).
+END_CONTACT_DEPTH = 0.02
 
 #: A joint configuration: a sequence of floats or a 1-d array.
 Q = Sequence[float] | np.ndarray
@@ -230,6 +239,10 @@ class _Checker:
         self.calls = 0
         # (held body, robot link) contacts present at the start (tolerate_held_contacts)
         self.held_touch: set[tuple[int, int]] = set()
+        # (body A, link A, body B, link B) -> the deepest signed distance (m, < 0) of that
+        # contact at the query's start or goal (tolerate_end_contacts): it may persist on
+        # the way while it gets no deeper than that (plus DEEPEN_TOLERANCE)
+        self.persisting: dict[tuple[int, int, int, int], float] = {}
 
     def _set(self, q: Q) -> None:
         m = self.model
@@ -260,16 +273,58 @@ class _Checker:
                 if p[8] < -CONTACT_TOLERANCE:
                     self.held_touch.add((h.body, p[4]))
 
+    def tolerate_end_contacts(self, *ends: Q) -> None:
+        """Let the forbidden contacts present at ``ends`` (the query's start and goal): self
+        contacts, and others no deeper than :data:`END_CONTACT_DEPTH`, persist along the
+        path while they get no deeper than there (plus :data:`DEEPEN_TOLERANCE`): the
+        robot stands at its start and is sent to its goal whatever the planner says, so a
+        slight contact there is no reason to give up planning; the path must only not
+        push further into it. MoveIt's start-state "jiggle" and allowed start contacts
+        serve the same end."""
+        found: dict[tuple[int, int, int, int], float] = {}
+        for q in ends:
+            for key, depth in self._contact_points(q):
+                found[key] = min(depth, found.get(key, 0.0))
+        # in a padded model, a contact at the end is deeper by the padding; a self contact
+        # (robot with robot: the simplified links of a PR2-like robot overlap by
+        # centimetres in configurations its IK reaches, torso against upper arm) persists
+        # at any depth: the robot's links are no obstacle the arm could push away
+        deepest = END_CONTACT_DEPTH + self.model.padding
+        robot = self.model.robot
+        self.persisting = {
+            k: d - DEEPEN_TOLERANCE
+            for k, d in found.items()
+            if d >= -deepest or (k[0] == robot and k[2] == robot)
+        }
+
+    def _contact_points(self, q: Q) -> list[tuple[tuple[int, int, int, int], float]]:
+        """The forbidden contact points at ``q``: (body A, link A, body B, link B) and the
+        signed distance (m, < -CONTACT_TOLERANCE), before any persisting contact is
+        excused."""
+        saved = self.persisting
+        self.persisting = {}
+        try:
+            return self._scan(q, first_only=False)
+        finally:
+            self.persisting = saved
+
     def contacts(self, q: Q, first_only: bool = False) -> list[tuple[str, str]]:
         """The forbidden contacts at ``q`` as (moving part, what it touches) names."""
         self.calls += 1
+        describe = self.model.describe
+        return [
+            (describe(a, la), describe(b, lb)) for (a, la, b, lb), _d in self._scan(q, first_only)
+        ]
+
+    def _scan(self, q: Q, first_only: bool) -> list[tuple[tuple[int, int, int, int], float]]:
         m = self.model
         c = m.client
         robot = m.robot
         self._set(q)
         pb.performCollisionDetection(physicsClientId=c)
         tol = -CONTACT_TOLERANCE
-        out: list[tuple[str, str]] = []
+        persisting = self.persisting
+        out: list[tuple[tuple[int, int, int, int], float]] = []
         touch = self.chain.touch_links
         moving = self.chain.moving_links
         for p in pb.getContactPoints(bodyA=robot, physicsClientId=c):
@@ -285,7 +340,10 @@ class _Checker:
                     continue
             elif la in touch and self._allowed(body, lb):
                 continue
-            out.append((m.describe(robot, la), m.describe(body, lb)))
+            key = (robot, la, body, lb)
+            if key in persisting and p[8] >= persisting[key]:
+                continue  # present at the start or goal, no deeper here
+            out.append((key, p[8]))
             if first_only:
                 return out
         for h in self.held:
@@ -294,7 +352,10 @@ class _Checker:
                     continue
                 if self._allowed(p[2], p[4]):
                     continue
-                out.append((m.describe(h.body, -1), m.describe(p[2], p[4])))
+                key = (h.body, -1, p[2], p[4])
+                if key in persisting and p[8] >= persisting[key]:
+                    continue
+                out.append((key, p[8]))
                 if first_only:
                     return out
         return out
@@ -564,6 +625,7 @@ class ArmMotionPlanner:
         exact = _Checker(self.verifier, self.chain, allowed)
         for checker in (padded, exact):
             checker.tolerate_held_contacts(a)
+            checker.tolerate_end_contacts(a, b)
         for q, what in ((a, "start"), (b, "goal")):
             hits = exact.contacts(q)
             if hits:
