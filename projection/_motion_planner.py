@@ -723,7 +723,15 @@ class ArmMotionPlanner:
                 vertices = self._sample(
                     a, b, check, padded, seed + 1, resolution, max_checks, timeout
                 )
-            if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
+            grazed = next(
+                (
+                    hits
+                    for q in _dense(vertices, self.verify_resolution)
+                    if (hits := exact.contacts(q, first_only=True))
+                ),
+                None,
+            )
+            if grazed is None:
                 positions, times = time_parameterise(
                     vertices, self.chain.max_velocity, self.acceleration, resolution
                 )
@@ -734,9 +742,10 @@ class ArmMotionPlanner:
                     vertices,
                 )
             log.info(
-                "arm path grazes an obstacle at resolution %.3f rad (attempt %d)",
+                "arm path grazes an obstacle at resolution %.3f rad (attempt %d): %s touches %s",
                 resolution,
                 attempt + 1,
+                *grazed[0],
             )
             resolution /= 2.0
         raise ManipulationPoseUnreachable(
