@@ -100,9 +100,10 @@ ESCAPE = 0.2
 #: How much deeper (m) than at the start or goal a contact present there may get on the
 #: way (:meth:`_Checker.tolerate_end_contacts`): the jitter of Bullet's contact depths.
 DEEPEN_TOLERANCE = 0.002
-#: Deepest penetration (m) of a contact at the start or goal that may persist (a slight
-#: one: an upper arm or a held object resting against an object); deeper, the start or
-#: goal is in collision. Self contacts persist at any depth (see tolerate_end_contacts).
+#: Deepest penetration (m) of a contact with an object or the kitchen at the start that
+#: may persist near the start (an upper arm or a held object resting against an object);
+#: deeper, the start is in collision. Self contacts persist at any depth, at the start
+#: and the goal (see ``_Checker.tolerate_end_contacts``).
 END_CONTACT_DEPTH = 0.02
 
 #: A joint configuration: a sequence of floats or a 1-d array.
@@ -243,6 +244,15 @@ class _Checker:
         # contact at the query's start or goal (tolerate_end_contacts): it may persist on
         # the way while it gets no deeper than that (plus DEEPEN_TOLERANCE)
         self.persisting: dict[tuple[int, int, int, int], float] = {}
+        self.start = np.zeros(len(chain.indices))  # the query's start (tolerate_end_contacts)
+        # how close two robot links may come before they count as a self contact, and
+        # how much deeper a contact present at the start or goal may get on the way.
+        # Deliberately no self margin in a padded model: with
+        # one, plans that now graze the robot's own body (logged) succeed, and one of
+        # them swept the milk off the counter on the seed-1 demo (a path within a
+        # millimetre of the believed milk, 2 mm from the real one; not traced further)
+        self.self_margin = -CONTACT_TOLERANCE
+        self.deepen = DEEPEN_TOLERANCE
 
     def _set(self, q: Q) -> None:
         m = self.model
@@ -273,29 +283,42 @@ class _Checker:
                 if p[8] < -CONTACT_TOLERANCE:
                     self.held_touch.add((h.body, p[4]))
 
-    def tolerate_end_contacts(self, *ends: Q) -> None:
-        """Let the forbidden contacts present at ``ends`` (the query's start and goal): self
-        contacts, and others no deeper than :data:`END_CONTACT_DEPTH`, persist along the
-        path while they get no deeper than there (plus :data:`DEEPEN_TOLERANCE`): the
-        robot stands at its start and is sent to its goal whatever the planner says, so a
-        slight contact there is no reason to give up planning; the path must only not
-        push further into it. MoveIt's start-state "jiggle" and allowed start contacts
-        serve the same end."""
-        found: dict[tuple[int, int, int, int], float] = {}
-        for q in ends:
-            for key, depth in self._contact_points(q):
-                found[key] = min(depth, found.get(key, 0.0))
-        # in a padded model, a contact at the end is deeper by the padding; a self contact
-        # (robot with robot: the simplified links of a PR2-like robot overlap by
-        # centimetres in configurations its IK reaches, torso against upper arm) persists
-        # at any depth: the robot's links are no obstacle the arm could push away
-        deepest = END_CONTACT_DEPTH + self.model.padding
+    def tolerate_end_contacts(self, start: Q, goal: Q) -> None:
+        """Let contacts present at the query's ends persist while they get no deeper than
+        there (plus :data:`DEEPEN_TOLERANCE`): self contacts at the start or the goal, at
+        any depth and along the whole path (the simplified links of a PR2-like robot
+        overlap by centimetres in configurations its IK reaches, torso against upper arm;
+        the robot's own links are nothing the arm could push away); a contact with an
+        object or the kitchen at the start, no deeper than :data:`END_CONTACT_DEPTH`, only
+        within :data:`ESCAPE` of the start (the arm leaves it: an upper arm resting
+        against an object; sliding along it further would push it). The robot stands at
+        its start and is sent to its goal whatever the planner says, so such a contact is
+        no reason to give up planning. MoveIt's start-state "jiggle" and allowed start
+        contacts serve the same end. A contact with an object at the goal is not
+        excused: the goal is in collision."""
         robot = self.model.robot
+        found: dict[tuple[int, int, int, int], float] = {}
+        for which, q in (("start", start), ("goal", goal)):
+            for key, depth in self._contact_points(q):
+                if which == "goal" and not (key[0] == robot and key[2] == robot):
+                    continue
+                found[key] = min(depth, found.get(key, 0.0))
+        # in a padded model, a contact at the start is deeper by the padding
+        deepest = END_CONTACT_DEPTH + self.model.padding
         self.persisting = {
-            k: d - DEEPEN_TOLERANCE
+            k: d - self.deepen
             for k, d in found.items()
-            if d >= -deepest or (k[0] == robot and k[2] == robot)
+            if (k[0] == robot and k[2] == robot) or d >= -deepest
         }
+        self.start = np.asarray(start, dtype=float)
+
+    def _persists(self, body: int, q: Q) -> bool:
+        """Whether a contact of the moving part with ``body`` present at the start still
+        may persist at ``q``: a self contact anywhere, another within ESCAPE of the
+        start."""
+        if body == self.model.robot:
+            return True
+        return float(np.linalg.norm(np.asarray(q, dtype=float) - self.start)) < ESCAPE
 
     def _contact_points(self, q: Q) -> list[tuple[tuple[int, int, int, int], float]]:
         """The forbidden contact points at ``q``: (body A, link A, body B, link B) and the
@@ -327,10 +350,12 @@ class _Checker:
         out: list[tuple[tuple[int, int, int, int], float]] = []
         touch = self.chain.touch_links
         moving = self.chain.moving_links
+        self_tol = self.self_margin
         for p in pb.getContactPoints(bodyA=robot, physicsClientId=c):
-            if p[8] >= tol:
+            body = p[2]
+            if p[8] >= (self_tol if body == robot else tol):
                 continue
-            body, la, lb = p[2], p[3], p[4]
+            la, lb = p[3], p[4]
             if body != robot and la not in moving and body not in self.held_bodies:
                 continue  # the rest of the robot stands still: its contacts are not ours
             if (body, la) in self.held_touch:
@@ -341,8 +366,8 @@ class _Checker:
             elif la in touch and self._allowed(body, lb):
                 continue
             key = (robot, la, body, lb)
-            if key in persisting and p[8] >= persisting[key]:
-                continue  # present at the start or goal, no deeper here
+            if key in persisting and p[8] >= persisting[key] and self._persists(body, q):
+                continue  # present at the start (or goal), no deeper here
             out.append((key, p[8]))
             if first_only:
                 return out
@@ -353,7 +378,7 @@ class _Checker:
                 if self._allowed(p[2], p[4]):
                     continue
                 key = (h.body, -1, p[2], p[4])
-                if key in persisting and p[8] >= persisting[key]:
+                if key in persisting and p[8] >= persisting[key] and self._persists(p[2], q):
                     continue
                 out.append((key, p[8]))
                 if first_only:
@@ -723,14 +748,13 @@ class ArmMotionPlanner:
                 vertices = self._sample(
                     a, b, check, padded, seed + 1, resolution, max_checks, timeout
                 )
-            grazed = next(
-                (
-                    hits
-                    for q in _dense(vertices, self.verify_resolution)
-                    if (hits := exact.contacts(q, first_only=True))
-                ),
-                None,
-            )
+            grazed = None
+            for q in _dense(vertices, self.verify_resolution):
+                exact.calls += 1
+                hits = exact._scan(q, first_only=True)
+                if hits:
+                    grazed = hits[0]
+                    break
             if grazed is None:
                 positions, times = time_parameterise(
                     vertices, self.chain.max_velocity, self.acceleration, resolution
@@ -741,11 +765,18 @@ class ArmMotionPlanner:
                     ArmTrajectory(self.chain.joints, positions, times, planned, calls),
                     vertices,
                 )
+            (body_a, link_a, body_b, link_b), depth = grazed
             log.info(
-                "arm path grazes an obstacle at resolution %.3f rad (attempt %d): %s touches %s",
+                "arm path grazes an obstacle at resolution %.3f rad (attempt %d): %s touches "
+                "%s by %.1f mm (%s)",
                 resolution,
                 attempt + 1,
-                *grazed[0],
+                self.verifier.describe(body_a, link_a),
+                self.verifier.describe(body_b, link_b),
+                -1000.0 * depth,
+                "deeper than at the start or goal"
+                if (body_a, link_a, body_b, link_b) in exact.persisting
+                else "new",
             )
             resolution /= 2.0
         raise ManipulationPoseUnreachable(

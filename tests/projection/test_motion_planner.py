@@ -502,8 +502,20 @@ def _bump_depth(world: World, name: str) -> float:
 
 
 def _bump_against(world: World, link: str, depth: float) -> None:
-    """A cup ``bump`` above robot ``link``, pressed ``depth`` m into
-    the robot (bisected on the closest-point distance)."""
+    """A cup ``bump`` below robot ``link``, pressed ``depth`` m into that link (bisected
+    on the closest-point distance)."""
+    import pybullet as pb
+
+    def into_link() -> float:
+        points = pb.getClosestPoints(
+            world.robot_body,
+            world.body_of("bump"),
+            0.5,
+            linkIndexA=world.robot_links[link],
+            physicsClientId=world.client,
+        )
+        return min(p[8] for p in points)
+
     centre = np.array(world.link_pose(link).position)
     lo, hi = 0.0, 0.4
     if "bump" in world.objects:
@@ -512,42 +524,47 @@ def _bump_against(world: World, link: str, depth: float) -> None:
     for _ in range(30):
         mid = (lo + hi) / 2.0
         world.set_object_pose(
-            "bump", Pose(tuple(centre + np.array([0.0, 0.0, mid]))), allow_overlap=True
+            "bump", Pose(tuple(centre + np.array([0.0, 0.0, -mid]))), allow_overlap=True
         )
-        if _bump_depth(world, "bump") < -depth:
+        if into_link() < -depth:
             lo = mid
         else:
             hi = mid
     world.set_object_pose(
-        "bump", Pose(tuple(centre + np.array([0.0, 0.0, hi]))), allow_overlap=True
+        "bump", Pose(tuple(centre + np.array([0.0, 0.0, -hi]))), allow_overlap=True
     )
 
 
-def test_a_slight_start_contact_may_persist_but_never_deepens(sink: World) -> None:
-    """An upper arm resting slightly against an object at the start (5 mm) is no reason
-    to give up planning (MoveIt's allowed start contacts): the arm is planned, and on
-    its way the contact never gets deeper than at the start. Pressed deeper (3 cm),
-    the start is in collision, as before."""
+def test_a_slight_start_contact_may_persist_but_never_deepens() -> None:
+    """An elbow resting slightly on an object at the start (5 mm) is no reason to give up
+    planning (MoveIt's allowed start contacts): the arm is planned from carry to park,
+    and on its way the contact never gets deeper than at the start. Pressed deeper
+    (3 cm), the start is in collision, as before."""
     from projection._motion_planner import DEEPEN_TOLERANCE
+    from robots.pr2 import DESCRIPTION as PR2
 
-    start, goal = sink.arm_joints("right"), _pregrasp(sink)
-    link = "r_upper_arm_roll_link"
-    _bump_against(sink, link, 0.005)
-    at_start = _bump_depth(sink, "bump")
-    assert -0.007 < at_start < -0.003
-    planner = _planner(sink)
-    try:
-        t = planner.plan(start, goal)
-        for q in t.positions:
-            sink.move_joints(right=tuple(float(v) for v in q))
-            assert _bump_depth(sink, "bump") >= at_start - DEEPEN_TOLERANCE - 1e-4
-        sink.move_joints(right=start)
-        _bump_against(sink, link, 0.03)
-        planner.sync(sink)
-        with pytest.raises(ManipulationPoseUnreachable, match="start configuration in collision"):
-            planner.plan(start, goal)
-    finally:
-        planner.close()
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        start, goal = world.arm_joints("right"), PR2.arm("right").state("park")
+        link = "r_elbow_flex_link"
+        _bump_against(world, link, 0.005)
+        at_start = _bump_depth(world, "bump")
+        assert -0.006 < at_start < -0.004  # nothing else of the robot touches it deeper
+        planner = _planner(world)
+        try:
+            t = planner.plan(start, goal)
+            for q in t.positions:
+                world.move_joints(right=tuple(float(v) for v in q))
+                assert _bump_depth(world, "bump") >= at_start - DEEPEN_TOLERANCE - 1e-4
+            world.move_joints(right=start)
+            _bump_against(world, link, 0.03)
+            planner.sync(world)
+            with pytest.raises(
+                ManipulationPoseUnreachable, match="start configuration in collision"
+            ):
+                planner.plan(start, goal)
+        finally:
+            planner.close()
 
 
 def test_a_self_contact_at_the_start_persists_without_deepening() -> None:
