@@ -482,6 +482,7 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
         "plan_misses": 0,
         "sweep_hits": 0,
         "sweep_misses": 0,
+        "planning_fallbacks": 0,
     }
     first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     sink.move_joints(right=start)
