@@ -125,7 +125,8 @@ def test_with_motion_planning_the_reach_goes_around_and_takes_its_path_time(
     straight = motion_seconds(before, robot_state(sink))
     # the planned detour, timed as the real arm module times it: longer than straight
     hits_before = sink.sweep_memo.hits
-    sweep = arm_motion_sweep(sink, "move-tcp", ["right"], {"right": _pregrasp(sink)}, torso, start)
+    reach = {"right": _pregrasp(sink), "collision_mode": None}  # as the motion's
+    sweep = arm_motion_sweep(sink, "move-tcp", ["right"], reach, torso, start)
     assert sink.sweep_memo.hits == hits_before + 1  # the executed motion's answer
     assert sweep.swept == () and sweep.waypoints > 2
     assert seconds == pytest.approx(sweep.seconds)
