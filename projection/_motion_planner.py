@@ -38,6 +38,13 @@ of an object its hand holds) with anything but its allowed contacts; self contac
 checked pairs only (:meth:`CollisionModel.self_pairs`). The parts of the robot that stand
 still (the other arm, what it holds, the torso) are obstacles, but their own contacts are
 not this motion's. A held object may keep touching the robot links it touches at the start.
+Contacts present at the query's ends may persist while they get no deeper
+(``_Checker.tolerate_end_contacts``): self contacts at the start and the goal (the
+simplified links of a PR2-like robot overlap by centimetres in configurations its IK
+reaches), a slight contact with an object at the start only near the start. Deliberate
+difference from MoveIt, which rejects a goal in collision and "jiggles" a start out of a
+slight one: the robot is at its start and is sent to its goal anyway (the old router
+otherwise), so planning around them is the safer answer.
 
 Determinism: the same model state, query, seed and parameters give the same trajectory
 (the seed goes to ``ompl.util.RNG.setSeed`` right before the ``SimpleSetup`` is built;
