@@ -162,6 +162,7 @@ class WorldProbes(Protocol):
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
         swept: bool | None = None,
+        collision_modes: Sequence[str | None] | None = None,
     ) -> ProbeResult:
         """Move ``arm``'s tool frame through ``waypoints`` (IK with torso resampling) from
         ``robot_pose`` (default: where the robot is). A waypoint fails if IK does not reach
@@ -169,7 +170,12 @@ class WorldProbes(Protocol):
         anything but its attached objects and the ``allowed_contacts`` (object or link
         names). ``swept``: whether the path the arm takes *between* checked waypoints
         must not sweep through objects either (None: the world model's default; a world
-        model that cannot tell checks the waypoints only)."""
+        model that cannot tell checks the waypoints only). ``collision_modes``: the
+        collision mode of the ``moving-tcp`` motion that will go to each waypoint (None:
+        avoid all, a free motion a controller may plan around objects; ``"allow-all"``,
+        ``"allow-hand"``: a contact motion along the straight tool line), so that the
+        swept check follows the path the robot will take; None for the argument: not
+        known (the straight tool line is checked)."""
         ...
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:

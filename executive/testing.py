@@ -267,6 +267,7 @@ class InMemoryWorld:
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
         swept: bool | None = None,
+        collision_modes: Sequence[str | None] | None = None,
     ) -> ProbeResult:
         self.probe_calls["arm"].append((arm, tuple(waypoints)))
         scripted = self._probe_failure("arm", ManipulationPoseUnreachable)

@@ -29,6 +29,7 @@ from executive import (
     current_environment,
 )
 from executive.events import object_name
+from plans.atomic import _COLLISION_MODES
 
 __all__ = [
     "PICK_CHECKS",
@@ -112,11 +113,17 @@ def check_picking_up_collisions(action: ActionDesignator, retries: int = PICK_CH
             args = _pick_arguments(current)
             obj = args["object_designator"]
             waypoints = [*args["reach_poses"], *args["grasp_poses"], *args["lift_poses"]]
+            # the collision mode of each motion (plans.atomic): the probe checks the path
+            # the robot will take, planned around objects for a free reach
+            modes = [_COLLISION_MODES["reaching"]] * len(args["reach_poses"])
+            modes += [_COLLISION_MODES["grasping"]] * len(args["grasp_poses"])
+            modes += [_COLLISION_MODES["lifting"]] * len(args["lift_poses"])
             result = world.probe_arm_trajectory(
                 args["arm"],
                 waypoints,
                 gripper_opening=args["opening"],
                 allowed_contacts=(object_name(obj),),
+                collision_modes=modes,
             )
             if result.ok:
                 return current
@@ -206,12 +213,16 @@ def _probe_placing(
     waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
     checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
     checks += [True] * len(args["retract_poses"])
+    modes = [_COLLISION_MODES["reaching"]] * len(args["reach_poses"])
+    modes += [_COLLISION_MODES["putting"]] * len(args["put_poses"])
+    modes += [_COLLISION_MODES["retracting"]] * len(args["retract_poses"])
     return world.probe_arm_trajectory(
         args["arm"],
         waypoints,
         allowed_contacts=(object_name(args["object_designator"]),),
         check_collisions=checks,
         swept=swept,
+        collision_modes=modes,
     )
 
 

@@ -653,7 +653,12 @@ def controller_path(
     """The configuration path the simulated controller follows for one arm motion
     (``command`` "move-tcp" or "move-joints"), with the robot standing at the motion's
     goal configuration (its IK solution or joint goal) and ``torso``/``start`` the
-    configuration it starts from: a ``move-tcp`` along the straight tool line, rerouted in
+    configuration it starts from: with ``world.arm_motion_planning``, a free ``move-tcp``
+    (``args`` carries its ``collision_mode`` and :func:`is_free_motion` says so) planned
+    as :func:`controller_trajectory` plans it (the torso first, then the arms; a failed
+    plan takes the fallback below, as the real controller does); a ``move-tcp`` whose
+    ``args`` lack a ``collision_mode`` (the motion's kind unknown) or a contact one
+    along the straight tool line, rerouted in
     joint space when that line sweeps through a free object (:func:`reroute_cartesian`),
     a configuration move routed around free objects (:func:`arm_path`). Both the real arms
     module (in the true world) and projection's swept probe (in the belief) call it, so a
@@ -666,6 +671,21 @@ def controller_path(
     world.move_joints(**{a: start[a] for a in arms})
     first: Config = (torso, {a: start[a] for a in arms})
     last: Config = (goal_torso, goal)
+    if (
+        command == "move-tcp"
+        and plan
+        and world.arm_motion_planning
+        and "collision_mode" in args
+        and is_free_motion(world, command, arms, args)
+    ):
+        # a free reach (no collision mode, the hand not at an object): planned, as the
+        # real controller plans it (controller_trajectory): the torso first, then the arms
+        timed = _plan_arms(world, world if model is None else model, arms, start, goal, goal_torso)
+        world.move_torso(torso)
+        world.move_joints(**{a: start[a] for a in arms})
+        if timed is not None:
+            return [first, *timed.configs]
+        plan = False  # failed (counted): the controller's fallback, as the real one's
     if command == "move-tcp":
         # The plan's waypoints assume the tool moves straight between them (a reach
         # approaches its object along the grasp axis): follow that line.

@@ -117,6 +117,7 @@ class RealWorldModel:
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
         swept: bool | None = None,
+        collision_modes: Sequence[str | None] | None = None,
     ) -> ProbeResult:
         return self.belief.probe_arm_trajectory(
             arm,
@@ -126,6 +127,7 @@ class RealWorldModel:
             allowed_contacts=allowed_contacts,
             check_collisions=check_collisions,
             swept=swept,
+            collision_modes=collision_modes,
         )
 
     def probe_arm_configuration(

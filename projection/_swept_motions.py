@@ -77,6 +77,7 @@ def arm_motion_sweep(
         command,
         tuple(arms),
         _goal_key(args, arms),
+        ("collision_mode" in args, args.get("collision_mode")),
         _rounded(torso, *(v for a in arms for v in start[a])),
         _rounded(goal_torso, *(v for a in world.arms for v in goal[a])),
         _rounded(*(world.gripper_opening(a) for a in world.arms)),

@@ -364,14 +364,16 @@ class WorldBase:
         """How often this world's arm-motion answers were reused: ``plan_hits`` /
         ``plan_misses`` of its arms' OMPL plan caches (``ArmMotionPlanner.plan``),
         ``sweep_hits`` / ``sweep_misses`` of :attr:`sweep_memo` (the controller paths
-        checked by the probes and the projected arms module). For the bench and the
-        campaign report."""
+        checked by the probes and the projected arms module), and ``planning_fallbacks``
+        (:attr:`motion_planning_fallbacks`: planned motions that took the old router). For
+        the bench and the campaign report."""
         planners = list(self._arm_planners.values())
         return {
             "plan_hits": sum(p.cache_hits for p in planners),
             "plan_misses": sum(p.cache_misses for p in planners),
             "sweep_hits": self.sweep_memo.hits,
             "sweep_misses": self.sweep_memo.misses,
+            "planning_fallbacks": self.motion_planning_fallbacks,
         }
 
     # ------------------------------------------------------------------ lifecycle

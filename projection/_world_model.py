@@ -9,7 +9,7 @@ motion on it and put everything back (``World.snapshot``/``restore``).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from cpl import PlanFailure as _PlanFailure
@@ -229,6 +229,7 @@ class ProjectedWorldModel:
         allowed_contacts: Sequence[str] = (),
         check_collisions: Sequence[bool] | bool = True,
         swept: bool | None = None,
+        collision_modes: Sequence[str | None] | None = None,
     ) -> ProbeResult:
         """Drive to ``robot_pose`` (if given; in collision -> ``NavigationPoseUnreachable``,
         index None), set the gripper opening (if given; out of range ->
@@ -252,8 +253,12 @@ class ProjectedWorldModel:
         the bowl as the hand goes down (seed 1 knocked the bowl so, three times).
         Deliberate addition: CRAM checked the waypoints only, and its arm moved between
         them wherever its controller took it; the simulated real arm follows that path
-        and topples what it sweeps through. The world is restored. Bad arguments raise
-        TypeError/ValueError."""
+        and topples what it sweeps through. ``collision_modes`` (one per waypoint; None:
+        not known): the collision mode of the motion to each waypoint; a free one (None:
+        avoid all) is checked along the path the real controller plans for it
+        (:func:`projection._arm_planner.controller_path`), not the straight tool line, so
+        the probe accepts a reach the robot will plan around an object. The world is
+        restored. Bad arguments raise TypeError/ValueError."""
         arm = _arm(self.world, arm)
         wps = [_pose(p, f"waypoint {i}") for i, p in enumerate(waypoints)]
         if robot_pose is not None:
@@ -265,6 +270,18 @@ class ProjectedWorldModel:
             if len(checks) != len(wps):
                 raise ValueError(
                     f"check_collisions has {len(checks)} entries for {len(wps)} waypoints"
+                )
+        if collision_modes is None:
+            modes: list[dict[str, Any]] = [{} for _ in wps]
+        else:
+            modes = [{"collision_mode": m} for m in collision_modes]
+            if len(modes) != len(wps) or any(
+                m["collision_mode"] is not None and not isinstance(m["collision_mode"], str)
+                for m in modes
+            ):
+                raise ValueError(
+                    f"collision_modes needs one mode (a string or None) per waypoint: "
+                    f"{len(wps)} waypoints, got {list(collision_modes)!r}"
                 )
         if isinstance(allowed_contacts, str):
             raise TypeError("allowed_contacts is a sequence of names, not one string")
@@ -282,7 +299,7 @@ class ProjectedWorldModel:
                     world.gripper(gripper_opening, arm)
             except _PlanFailure as failure:
                 return ProbeResult(False, failure)
-            for i, (wp, check) in enumerate(zip(wps, checks)):
+            for i, (wp, check, mode) in enumerate(zip(wps, checks, modes)):
                 torso, start = world.torso_height, {arm: world.arm_joints(arm)}
                 try:
                     world.move_tcp(**{arm: wp})
@@ -294,7 +311,7 @@ class ProjectedWorldModel:
                     if contacts:
                         return ProbeResult(False, _in_collision(arm, i, contacts), i)
                     if sweeps:
-                        hits = self._swept(arm, wp, torso, start, allowed)
+                        hits = self._swept(arm, wp, torso, start, allowed, mode)
                         if hits:
                             return ProbeResult(False, _swept_into(arm, i, hits), i)
                 else:
@@ -419,6 +436,7 @@ class ProjectedWorldModel:
         torso: float,
         start: dict[str, tuple[float, ...]],
         allowed: frozenset[str],
+        mode: Mapping[str, Any] | None = None,
     ) -> list[str]:
         """With the robot at a waypoint's IK goal: the free objects (not ``allowed``, not
         touched where the motion starts or ends) that the real controller's path from
@@ -428,7 +446,8 @@ class ProjectedWorldModel:
         world's (:func:`projection._swept_motions.arm_motion_sweep`, remembered in
         ``World.sweep_memo``), so executing the motion checked here costs a lookup.
         Leaves the robot at the goal configuration."""
-        sweep = arm_motion_sweep(self.world, "move-tcp", [arm], {arm: waypoint}, torso, start)
+        args = {arm: waypoint, **(mode or {})}  # with its collision mode where known
+        sweep = arm_motion_sweep(self.world, "move-tcp", [arm], args, torso, start)
         return [n for n in sweep.swept if n not in allowed]
 
     def probe_placing_stability(self, object_type: str, pose: Pose) -> ProbeResult:

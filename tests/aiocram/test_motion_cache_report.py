@@ -29,4 +29,10 @@ def test_the_record_counts_the_belief_worlds_sweeps() -> None:
     )
     cache = report.to_json()["motion_cache"]
     assert cache["belief"]["sweep_misses"] == 1 and cache["belief"]["sweep_hits"] == 1
-    assert set(cache["true"]) == {"plan_hits", "plan_misses", "sweep_hits", "sweep_misses"}
+    assert set(cache["true"]) == {
+        "plan_hits",
+        "plan_misses",
+        "sweep_hits",
+        "sweep_misses",
+        "planning_fallbacks",
+    }

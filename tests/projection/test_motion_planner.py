@@ -482,6 +482,7 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
         "plan_misses": 0,
         "sweep_hits": 0,
         "sweep_misses": 0,
+        "planning_fallbacks": 0,
     }
     first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     sink.move_joints(right=start)
@@ -489,3 +490,121 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
     assert first == again
     counts = sink.motion_cache_counts()
     assert (counts["plan_hits"], counts["plan_misses"]) == (1, 1)
+
+
+def _bump_depth(world: World, name: str) -> float:
+    """The signed distance (m) between the robot and object ``name`` (< 0: inside)."""
+    import pybullet as pb
+
+    points = pb.getClosestPoints(
+        world.robot_body, world.body_of(name), 0.5, physicsClientId=world.client
+    )
+    return min(p[8] for p in points)
+
+
+def _bump_against(world: World, link: str, depth: float) -> None:
+    """A cup ``bump`` below robot ``link``, pressed ``depth`` m into that link (bisected
+    on the closest-point distance)."""
+    import pybullet as pb
+
+    def into_link() -> float:
+        points = pb.getClosestPoints(
+            world.robot_body,
+            world.body_of("bump"),
+            0.5,
+            linkIndexA=world.robot_links[link],
+            physicsClientId=world.client,
+        )
+        return min(p[8] for p in points)
+
+    centre = np.array(world.link_pose(link).position)
+    lo, hi = 0.0, 0.4
+    if "bump" in world.objects:
+        world.remove_object("bump")
+    world.spawn_object("bump", "cup", Pose(tuple(centre)), allow_overlap=True)
+    for _ in range(30):
+        mid = (lo + hi) / 2.0
+        world.set_object_pose(
+            "bump", Pose(tuple(centre + np.array([0.0, 0.0, -mid]))), allow_overlap=True
+        )
+        if into_link() < -depth:
+            lo = mid
+        else:
+            hi = mid
+    world.set_object_pose(
+        "bump", Pose(tuple(centre + np.array([0.0, 0.0, -hi]))), allow_overlap=True
+    )
+
+
+def test_a_slight_start_contact_may_persist_but_never_deepens() -> None:
+    """An elbow resting slightly on an object at the start (5 mm) is no reason to give up
+    planning (MoveIt's allowed start contacts): the arm is planned from carry to park,
+    and on its way the contact never gets deeper than at the start. Pressed deeper
+    (3 cm), the start is in collision, as before."""
+    from projection._motion_planner import DEEPEN_TOLERANCE
+    from robots.pr2 import DESCRIPTION as PR2
+
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        start, goal = world.arm_joints("right"), PR2.arm("right").state("park")
+        link = "r_elbow_flex_link"
+        _bump_against(world, link, 0.005)
+        at_start = _bump_depth(world, "bump")
+        assert -0.006 < at_start < -0.004  # nothing else of the robot touches it deeper
+        planner = _planner(world)
+        try:
+            t = planner.plan(start, goal)
+            for q in t.positions:
+                world.move_joints(right=tuple(float(v) for v in q))
+                assert _bump_depth(world, "bump") >= at_start - DEEPEN_TOLERANCE - 1e-4
+            world.move_joints(right=start)
+            _bump_against(world, link, 0.03)
+            planner.sync(world)
+            with pytest.raises(
+                ManipulationPoseUnreachable, match="start configuration in collision"
+            ):
+                planner.plan(start, goal)
+        finally:
+            planner.close()
+
+
+def test_a_self_contact_at_the_start_persists_without_deepening() -> None:
+    """A start configuration in which the arm touches the robot's own body (the first of
+    a seeded search; the simplified links of the robot overlap by centimetres in
+    configurations its IK reaches, e.g. torso against upper arm) is no reason to give up
+    planning: the plan leaves it, and no self contact on the way is deeper than at the
+    start (checked in the exact geometry)."""
+    import pybullet as pb
+
+    from projection._motion_planner import DEEPEN_TOLERANCE
+
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        planner = _planner(world)
+        try:
+            model = planner.verifier
+            robot_links = set(model.links[model.robot])
+            chain = planner.chain
+            goal = np.array(world.arm_joints("right"))
+            rng = np.random.default_rng(0)
+            for _ in range(500):
+                a = rng.uniform(chain.lower, chain.upper)
+                hits = planner.collisions(a)
+                if hits and all(x in robot_links and y in robot_links for x, y in hits):
+                    break
+            else:
+                pytest.fail("no start touching only the robot's own body in 500 samples")
+
+            def deepest(q: np.ndarray) -> float:
+                planner.collisions(q)  # puts the verifier at q (and detects contacts)
+                points = pb.getContactPoints(model.robot, model.robot, physicsClientId=model.client)
+                pairs = model.self_pairs(chain)
+                return min((p[8] for p in points if (p[3], p[4]) in pairs), default=0.0)
+
+            at_start = deepest(a)
+            assert at_start < 0.0
+            t = planner.plan(a, goal, seed=1)
+            for q in t.positions:
+                assert deepest(q) >= at_start - DEEPEN_TOLERANCE - 1e-4
+        finally:
+            planner.close()

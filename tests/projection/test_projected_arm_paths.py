@@ -74,7 +74,8 @@ def _pregrasp_joints(world: World) -> tuple[float, ...]:
 def test_a_reach_whose_path_sweeps_a_neighbour_fails_and_moves_nothing(
     mrun: Any, sink: World
 ) -> None:
-    # without the planner (on by default) the controller's reroutes are all the arm has
+    # the controller without a planner (with one, the reach now goes around the box:
+    # test_with_motion_planning_the_reach_goes_around_and_takes_its_path_time)
     sink.arm_motion_planning = False
     motion = a.motion(type="moving-tcp", right_pose=_pregrasp(sink))
     # the path is clear without the box: the reach is projected and moves the arm
@@ -124,7 +125,8 @@ def test_with_motion_planning_the_reach_goes_around_and_takes_its_path_time(
     straight = motion_seconds(before, robot_state(sink))
     # the planned detour, timed as the real arm module times it: longer than straight
     hits_before = sink.sweep_memo.hits
-    sweep = arm_motion_sweep(sink, "move-tcp", ["right"], {"right": _pregrasp(sink)}, torso, start)
+    reach = {"right": _pregrasp(sink), "collision_mode": None}  # as the motion's
+    sweep = arm_motion_sweep(sink, "move-tcp", ["right"], reach, torso, start)
     assert sink.sweep_memo.hits == hits_before + 1  # the executed motion's answer
     assert sweep.swept == () and sweep.waypoints > 2
     assert seconds == pytest.approx(sweep.seconds)

@@ -16,6 +16,7 @@ import pytest
 import cpl
 from cpl.testing import MockClock
 from executive import Pose, a, knowledge, perform
+from executive.failures import ManipulationGoalInCollision
 from kitchens import iai as kitchen
 from projection import FaultProfile, World, make_world_pair, with_real_robot
 from projection._arm_planner import (
@@ -261,3 +262,35 @@ def test_an_object_where_the_belief_does_not_have_it_is_an_obstacle_too(
     else:
         assert "cup-9" not in belief.objects
     assert "cup-9~seen" not in belief.objects
+
+
+def _swept(failure: BaseException | None) -> object:
+    assert isinstance(failure, ManipulationGoalInCollision)
+    return failure.details.get("swept")
+
+
+def test_the_probe_checks_the_path_the_robot_plans_for_a_free_reach(
+    scene: tuple[World, World],
+) -> None:
+    """carry -> the cup's pregrasp, whose straight tool line sweeps the arm through the
+    cereal box: probed as a free reach (collision mode None, as plans.checks passes it),
+    the probe checks the path the real robot plans around the box and accepts it; as a
+    contact motion (straight) or with the mode unknown, it refuses it. The real robot
+    then goes around: the true box does not move."""
+    from projection import ProjectedWorldModel
+
+    true, belief = scene
+    pre, _goal, _grasp = _pregrasp(true)
+    probe = ProjectedWorldModel(belief)
+    unknown = probe.probe_arm_trajectory("right", [pre])
+    assert not unknown.ok and _swept(unknown.failure) == ("cereal-9",)
+    contact = probe.probe_arm_trajectory("right", [pre], collision_modes=["allow-all"])
+    assert not contact.ok and _swept(contact.failure) == ("cereal-9",)
+    free = probe.probe_arm_trajectory("right", [pre], collision_modes=[None])
+    assert free.ok, free.failure
+    with pytest.raises(ValueError, match="one mode"):
+        probe.probe_arm_trajectory("right", [pre], collision_modes=[None, None])
+    cereal = true.object_pose("cereal-9")
+    _run(true, belief, a.motion(type="moving-tcp", right_pose=pre))
+    assert true.motion_planning_fallbacks == 0
+    assert true.object_pose("cereal-9").isclose(cereal, 1e-3, 1e-2)
