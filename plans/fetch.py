@@ -16,6 +16,12 @@ around that place; ``transport`` calls it, and ``fetch`` then picks it up from t
 (the IK lowers the torso; top and side grasps as anywhere else). An object seen on the
 floor that no base pose, arm and grasp can reach fails with
 :class:`ObjectUnreachableOnFloor` (logged, and counted as ``floor-unreachable``).
+
+Deliberate addition (beyond CRAM): an object on the floor at the foot of a counter (its
+centre within :data:`plans.pushing.PUSH_NEAR` of a kitchen surface's footprint) is first
+pushed away from that counter by the hand (:func:`plans.pushing.push_clear_of_counter`,
+counted ``pushes``; a push the belief says cannot work is counted ``push-infeasible`` and
+the fetch tries from where it lies), then fetched from where it was re-perceived.
 """
 
 from __future__ import annotations

@@ -523,12 +523,19 @@ async def push_clear_of_counter(object_designator: ObjectDesignator) -> ObjectDe
     """An object on the floor at the foot of a counter (its centre within
     :data:`PUSH_NEAR` of a surface's footprint, :func:`nearest_counter`): push it straight
     away from that counter (or at an angle, :data:`PUSH_ANGLES`) until its centre is
-    :data:`PUSH_CLEAR` from it, and return the re-perceived designator. Farther already:
-    the designator, nothing moves. No push works: :class:`ObjectUnpushable` (logged,
+    :data:`PUSH_CLEAR` from it, and return the re-perceived designator. Farther already,
+    or the world model knows no extent of the surfaces or the object: the designator,
+    nothing moves. No push works: :class:`ObjectUnpushable` (logged,
     counted ``push-infeasible``), nothing moved."""
     name = str(object_designator.current().get("name"))
     x, y, _z = _world().object_pose(name).position
-    link, gap, away = nearest_counter(x, y)
+    try:
+        link, gap, away = nearest_counter(x, y)
+        _world().object_aabb(name)
+    except LookupError as unknown:
+        # a world model that knows no extent of the counters or the object: no push
+        log.info("%s is not pushed: %s", name, unknown)
+        return object_designator
     if gap >= PUSH_NEAR:
         return object_designator
     try:
