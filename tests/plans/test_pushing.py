@@ -194,3 +194,32 @@ def test_a_push_that_no_arm_reaches_is_a_counted_typed_refusal_before_moving(
 
     with pytest.raises(ObjectUnpushable, match="no base pose and arm push it"):
         robot.run(ask)
+
+
+@pytest.mark.parametrize(
+    ("direction", "distance", "fix"),
+    [((0.0, 0.0), 0.2, "non-zero x/y vector"), ((1.0, 0.0), -0.1, "distance must be > 0")],
+)
+def test_a_bad_push_is_a_typed_error_naming_what_to_fix_before_moving(
+    direction: tuple[float, float], distance: float, fix: str
+) -> None:
+    from conftest import make_robot
+
+    from executive import DesignatorInputError, an, perform
+
+    world = _world_at_the_counter(Pose((0.96, 0.6, 0.05)))
+    robot = make_robot(world)
+
+    async def go() -> None:
+        await perform(
+            an.action(
+                type="pushing-object",
+                object=an.object(type="cup", name="cup-1", pose=world.object_pose("cup-1")),
+                direction=direction,
+                distance=distance,
+            )
+        )
+
+    with pytest.raises(DesignatorInputError, match=fix):
+        robot.run(go)
+    assert robot.calls("navigation") == [] and robot.calls("arms") == []
