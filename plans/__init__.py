@@ -41,6 +41,7 @@ from . import (
     fetch,
     navigation,
     pick_place,
+    pushing,
     search,
     transport,
 )
@@ -84,6 +85,7 @@ __all__ = [
     "navigation",
     "pick_best_parameters_by_distance",
     "pick_place",
+    "pushing",
     "retry_ledger",
     "search",
     "table_setting",

@@ -16,6 +16,12 @@ around that place; ``transport`` calls it, and ``fetch`` then picks it up from t
 (the IK lowers the torso; top and side grasps as anywhere else). An object seen on the
 floor that no base pose, arm and grasp can reach fails with
 :class:`ObjectUnreachableOnFloor` (logged, and counted as ``floor-unreachable``).
+
+Deliberate addition (beyond CRAM): an object on the floor at the foot of a counter (its
+centre within :data:`plans.pushing.PUSH_NEAR` of a kitchen surface's footprint) is first
+pushed away from that counter by the hand (:func:`plans.pushing.push_clear_of_counter`,
+counted ``pushes``; a push the belief says cannot work is counted ``push-infeasible`` and
+the fetch tries from where it lies), then fetched from where it was re-perceived.
 """
 
 from __future__ import annotations
@@ -65,6 +71,7 @@ from ._common import (
 from ._designators import _check_places, _given_arm, _object, default_of, learned_base, robot_name
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
+from .pushing import ObjectUnpushable, push_clear_of_counter
 from .search import arms_out_of_view, search_for_object
 from .toppled import ObjectToppledUngraspable, check_graspable_as_it_lies
 
@@ -142,11 +149,16 @@ async def fetch(
         return ObjectUnfetchable(object=object_label(object_designator))
 
     async def body() -> ObjectDesignator:
+        nonlocal object_designator
         # as the search perceived it: toppled with no grasp that fits, before moving
         _check_lying(object_designator)
         name = object_designator.current().get("name")
         object_pose = a.location(of_item_object=name).reference()
         on_floor = object_pose.position[2] < floor_height()
+        if on_floor and robot_location is None:
+            # at the foot of a counter no grasp reaches it: pushed away first
+            object_designator = await _pushed_clear(object_designator)
+            object_pose = a.location(of_item_object=name).reference()
         if robot_location is not None:
             where = robot_location.current()
         elif on_floor:
@@ -295,6 +307,17 @@ def _check_lying(perceived: Any) -> None:
     except LookupError:
         return  # the picking-up grounding names the known types
     check_graspable_as_it_lies(obj, otype, transform)
+
+
+async def _pushed_clear(object_designator: ObjectDesignator) -> ObjectDesignator:
+    """The object on the floor pushed clear of the counter it lies at the foot of
+    (:func:`plans.pushing.push_clear_of_counter`), re-perceived; not at a counter, or no
+    push works (logged and counted there): the designator as it was, and the fetch tries
+    from where it lies."""
+    try:
+        return await push_clear_of_counter(object_designator)
+    except ObjectUnpushable:
+        return object_designator
 
 
 def _believed_height(object_designator: ObjectDesignator) -> float | None:
