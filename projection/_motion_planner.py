@@ -672,12 +672,25 @@ class ArmMotionPlanner:
                 self.chain.joints, b[None, :].copy(), np.zeros(1), False, exact.calls
             )
 
+        # configuration (its float64 bytes) -> whether it is valid, for this query only:
+        # the sampler, the straight line and the shortcutting ask again for states they
+        # checked already (about one check in eight on a reach past a cereal box); the
+        # answer depends on nothing but the configuration while the query runs (the
+        # models, the allowed and persisting contacts are fixed until it returns)
+        memo: dict[bytes, bool] = {}
+
         def check(q: Q) -> bool:
-            if padded.valid(q):
-                return True
-            v = np.asarray(q)
-            near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
-            return bool(near and exact.valid(q))
+            v = np.asarray(q, dtype=float)
+            k = v.tobytes()
+            known = memo.get(k)
+            if known is not None:
+                return known
+            ok = padded.valid(v)
+            if not ok:
+                near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
+                ok = bool(near and exact.valid(v))
+            memo[k] = ok
+            return ok
 
         if cached is not None and cached.vertices is not None:
             # the same query in a world equal up to the quanta: the remembered path, its
