@@ -14,7 +14,13 @@ measured it on this machine:
 4. otherwise RRTConnect (single-threaded: PRM deadlocks with a Python checker) on a fresh
    ``SimpleSetup`` seeded right before it is built, stopped by a budget of validity checks
    (deterministic) with a wall-clock timeout as a safety net only; then ``simplifyMax``
-   (deterministic; time-bounded simplification is not);
+   (deterministic; time-bounded simplification is not); within one query each
+   configuration is scanned once (the sampler, the straight line, shortcutting and the
+   retry after a graze ask again for about one state in eight: answered from a memo).
+   Bullet keeps contact manifolds between scans, so the contact points a scan reports
+   (not, in the samples measured, whether the state is valid) depend on the states
+   scanned before it: on the seed-1 demo 79 of 80 plans came out bit-identical with and
+   without the memo, one query that found a path after a graze grazed twice with it;
 5. the path checked every :data:`VERIFY_RESOLUTION` rad in the exact geometry (the planning
    model's obstacles are inflated by :data:`projection._collision_model.PADDING` so that
    grazes between checked states are caught); a graze: planned again at half the
