@@ -15,7 +15,12 @@ from executive.failures import ManipulationPoseUnreachable
 from kitchens import iai as kitchen
 from projection import World
 from projection._collision_model import CollisionModel
-from projection._motion_planner import ArmMotionPlanner, ArmTrajectory, time_parameterise
+from projection._motion_planner import (
+    ArmMotionPlanner,
+    ArmTrajectory,
+    _Checker,
+    time_parameterise,
+)
 from projection._objects import object_type
 from robots.pr2 import ARM_JOINTS
 from robots.pr2 import STANDARD_TO_TOOL as PR2_TOOL
@@ -608,3 +613,29 @@ def test_a_self_contact_at_the_start_persists_without_deepening() -> None:
                 assert deepest(q) >= at_start - DEEPEN_TOLERANCE - 1e-4
         finally:
             planner.close()
+
+
+def test_a_configuration_is_checked_once_per_query(
+    sink: World, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The sampler, the straight line and the shortcutting ask again for states they
+    checked: within one query each configuration is scanned in the planning model only
+    once (the contacts the ends may keep are scanned apart)."""
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    planner = _planner(sink)
+    scanned: list[bytes] = []
+    scan = _Checker._scan
+
+    def counting(self: _Checker, q: object, first_only: bool) -> object:
+        if self.model is planner.model and first_only:  # a validity check
+            scanned.append(np.asarray(q, dtype=float).tobytes())
+        return scan(self, q, first_only)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_Checker, "_scan", counting)
+    try:
+        t = planner.plan(start, goal, seed=3)
+        assert t.planned
+        assert len(scanned) > 100  # it sampled
+        assert len(scanned) == len(set(scanned))
+    finally:
+        planner.close()
