@@ -286,14 +286,17 @@ class Pose:
 
     def __repr__(self) -> str:
         p = " ".join(map(_shown, self.position))
-        q = " ".join(f"{v:.3f}" for v in self.orientation)
+        q = " ".join(map(_shown, self.orientation))
         return f"<Pose {self.frame} ({p}) ({q})>"
 
 
 def _shown(v: float) -> str:
     """A coordinate for display: millimetres, or 6 significant digits when huge (a
-    1e300 m typo must not print 300 digits)."""
-    return f"{v:.3f}" if abs(v) < 1e9 else f"{v:.6g}"
+    1e300 m typo must not print 300 digits). A value that rounds to zero shows as
+    ``0.000`` whatever its sign: ``-0.000`` is floating-point noise (it flipped with the
+    order of a computation), not information."""
+    shown = f"{v:.3f}" if abs(v) < 1e9 else f"{v:.6g}"
+    return "0.000" if shown == "-0.000" else shown
 
 
 _POSE_KEYWORDS = ("position", "orientation_xyzw", "frame")

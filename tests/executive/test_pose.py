@@ -81,3 +81,13 @@ def test_a_huge_position_is_shown_briefly() -> None:
     assert (
         repr(Pose((1e300, 1.0, 2.0))) == "<Pose map (1e+300 1.000 2.000) (0.000 0.000 0.000 1.000)>"
     )
+
+
+def test_a_value_rounding_to_zero_is_shown_without_its_sign() -> None:
+    # -0.000 is floating-point noise whose sign flips with the order of a computation;
+    # docs that show poses must not change with it
+    assert (
+        repr(Pose((-0.0001, -0.0, 0.3), (-0.0002, 0.0, -0.0, 1.0)))
+        == "<Pose map (0.000 0.000 0.300) (0.000 0.000 0.000 1.000)>"
+    )
+    assert repr(Pose((-0.0006, 0.0, 0.0))).startswith("<Pose map (-0.001 ")
