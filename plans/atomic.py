@@ -16,7 +16,8 @@ lifting, grasping, putting,                               intermediate waypoints
 pulling, pushing                                          waypoint's failure propagates
 positioning-arm               position-arms               manipulation low-level ignored
 gripping (gripper, effort?)   grip                        gripper low-level: 1 retry
-releasing (gripper)           release                     gripper low-level ignored
+releasing (gripper,          release                     gripper low-level ignored
+  position?)
 opening-gripper,              open-or-close-gripper       gripper low-level ignored
 closing-gripper, opening /
 closing with a gripper
@@ -616,26 +617,62 @@ def _gripping(d: Designator) -> Iterator[Any]:
 
 
 @cpl.plan(name="release")
-async def release(gripper: Any) -> None:
-    """Open the gripper; gripper failures are ignored."""
-    await perform_ignoring(
-        a.motion(type="opening-gripper", gripper=gripper), GripperLowLevelFailure
+async def release(gripper: Any, position: float | None = None) -> None:
+    """Open the gripper (fully, or to ``position`` metres); gripper failures are
+    ignored."""
+    if position is None:
+        motion = a.motion(type="opening-gripper", gripper=gripper)
+    else:
+        motion = a.motion(type="moving-gripper-joint", gripper=gripper, joint_angle=position)
+    await perform_ignoring(motion, GripperLowLevelFailure)
+
+
+def _gripper_position(d: Designator, gripper: Any, position: Any) -> float:
+    """``position`` checked to be an opening (m) every gripper named reaches; else a
+    DesignatorError before anything moves (the gripper plans ignore gripper failures, so
+    an opening out of range would otherwise be dropped without a word)."""
+    if isinstance(position, bool) or not isinstance(position, (int, float)):
+        raise DesignatorError(f"{d.short()} needs a position (metres)", d)
+    widest = min(
+        arm_description(g).gripper.max_opening
+        for g in (gripper if isinstance(gripper, tuple) else (gripper,))
     )
+    if not 0.0 <= position <= widest:
+        raise DesignatorError(
+            f"{d.short()}: position is the gripper opening in metres, from 0 to "
+            f"{widest}; got {position!r}",
+            d,
+        )
+    return float(position)
 
 
 @rule(
     "action",
     "releasing",
     doc=RuleDoc(
-        "Open the gripper (plan release); the world model is not told: emit ObjectDetached "
-        "(placing does).",
-        keys=(_GRIPPER,),
+        "Open the gripper (plan release): fully, or to the given position; the world "
+        "model is not told: emit ObjectDetached (placing does).",
+        keys=(
+            _GRIPPER,
+            Key(
+                "position",
+                "number (m), 0 to the gripper's max_opening",
+                "open only this wide (placing: the opening the pick used, so the fingers "
+                "do not press the neighbours); out of range: DesignatorError",
+                default="fully open",
+            ),
+        ),
         ignores=(GripperLowLevelFailure,),
-        motions=("opening-gripper",),
+        motions=("opening-gripper", "moving-gripper-joint"),
     ),
 )
 def _releasing(d: Designator) -> Iterator[Any]:
-    yield release, {"gripper": _gripper(d)}
+    gripper = _gripper(d)
+    position = d.get("position")
+    if position is None:
+        yield release, {"gripper": gripper}
+    else:
+        yield release, {"gripper": gripper, "position": _gripper_position(d, gripper, position)}
 
 
 @cpl.plan(name="open-or-close-gripper")
@@ -700,23 +737,9 @@ async def set_gripper_to_position(gripper: Any, position: float) -> None:
     ),
 )
 def _setting_gripper(d: Designator) -> Iterator[Any]:
-    position = d.get("position")
-    if isinstance(position, bool) or not isinstance(position, (int, float)):
-        raise DesignatorError(f"{d.short()} needs a position (metres)", d)
-    # checked here, before the gripper moves: the plan ignores gripper failures, so an
-    # opening out of range would otherwise be dropped without a word
     gripper = _gripper(d)
-    widest = min(
-        arm_description(g).gripper.max_opening
-        for g in (gripper if isinstance(gripper, tuple) else (gripper,))
-    )
-    if not 0.0 <= position <= widest:
-        raise DesignatorError(
-            f"{d.short()}: position is the gripper opening in metres, from 0 to "
-            f"{widest}; got {position!r}",
-            d,
-        )
-    yield set_gripper_to_position, {"gripper": gripper, "position": float(position)}
+    position = _gripper_position(d, gripper, d.get("position"))
+    yield set_gripper_to_position, {"gripper": gripper, "position": position}
 
 
 for _gripper_plan in (grip, release, open_or_close_gripper, set_gripper_to_position):

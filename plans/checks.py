@@ -209,20 +209,37 @@ def _probe_placing(
     world: ProjectionWorld, args: dict[str, Any], swept: bool | None = None
 ) -> ProbeResult:
     """Probe a placing grounding's reach, put and retract waypoints (the put ones not for
-    collisions: the object touches its support there)."""
-    waypoints = [*args["reach_poses"], *args["put_poses"], *args["retract_poses"]]
+    collisions: the object touches its support there), then, where the grounding names
+    its ``release_opening``, the release: the reach and put again with the gripper opened
+    that wide, where the robot must press no free object but the placed one (the fingers
+    opening beside a neighbour push it). Deliberate addition: CRAM checked no release."""
+    allowed = (object_name(args["object_designator"]),)
+    reach_put = [*args["reach_poses"], *args["put_poses"]]
     checks = [True] * len(args["reach_poses"]) + [False] * len(args["put_poses"])
     checks += [True] * len(args["retract_poses"])
     modes = [_COLLISION_MODES["reaching"]] * len(args["reach_poses"])
     modes += [_COLLISION_MODES["putting"]] * len(args["put_poses"])
     modes += [_COLLISION_MODES["retracting"]] * len(args["retract_poses"])
-    return world.probe_arm_trajectory(
+    result = world.probe_arm_trajectory(
         args["arm"],
-        waypoints,
-        allowed_contacts=(object_name(args["object_designator"]),),
+        [*reach_put, *args["retract_poses"]],
+        allowed_contacts=allowed,
         check_collisions=checks,
         swept=swept,
         collision_modes=modes,
+    )
+    opening = args.get("release_opening")
+    if not result.ok or opening is None:
+        return result
+    # unchecked waypoints: only pressing a free object fails them (kitchen contacts are
+    # the put's own); the path was checked above, with the fingers as they hold
+    return world.probe_arm_trajectory(
+        args["arm"],
+        reach_put,
+        gripper_opening=opening,
+        allowed_contacts=allowed,
+        check_collisions=False,
+        swept=False,
     )
 
 

@@ -100,11 +100,13 @@ from .toppled import lying_grasps
 _log = logging.getLogger(__name__)
 
 __all__ = [
+    "RELEASE_CLEARANCE",
     "object_lost",
     "pick_up",
     "place",
     "placing_waypoints",
     "release_held",
+    "release_opening",
     "retreat",
     "verify_grasp",
 ]
@@ -426,19 +428,50 @@ async def place(
     put_poses: Sequence[Pose],
     retract_poses: Sequence[Pose],
     grasp: str | None = None,
+    release_opening: float | None = None,
 ) -> None:
     """Put the held object down.
 
     1. ``reaching`` (its manipulation failure propagates); 2. ``putting`` (ignored);
-    3. ``releasing`` (gripper failures ignored); 4. ``ObjectDetached`` (the world model
-    lets the object settle); 5. ``retracting`` (ignored)."""
+    3. ``releasing`` to ``release_opening`` (None: fully open; gripper failures
+    ignored); 4. ``ObjectDetached`` (the world model lets the object settle);
+    5. ``retracting`` (ignored).
+
+    Deliberate difference from CRAM (whose placing opens the gripper fully): the
+    placing grounding releases at :func:`release_opening`, as wide as the pick opened
+    to grasp the object: a spoon put down 6 cm beside a cup was let go of with the
+    fingers opened to 0.10 m, and a finger pushed the cup (seed 2)."""
     await perform(_arm_action("reaching", arm, reach_poses))
     await perform_ignoring(_arm_action("putting", arm, put_poses), ManipulationLowLevelFailure)
-    await perform_ignoring(an.action(type="releasing", gripper=arm), GripperLowLevelFailure)
+    releasing = (
+        an.action(type="releasing", gripper=arm)
+        if release_opening is None
+        else an.action(type="releasing", gripper=arm, position=release_opening)
+    )
+    await perform_ignoring(releasing, GripperLowLevelFailure)
     emit(ObjectDetached(object_designator, arm, hand_link_of(arm)))
     await perform_ignoring(
         _arm_action("retracting", arm, retract_poses), ManipulationLowLevelFailure
     )
+
+
+#: Opening (m) the released fingers clear the held object by at least: above the opening
+#: measured while it is held (a gripper that holds it closes on it).
+RELEASE_CLEARANCE = 0.01
+
+
+def release_opening(object_type: str, arm: str) -> float:
+    """How wide a placing opens ``arm``'s gripper to let go of an object of
+    ``object_type``: the opening its pick used (the type's
+    :func:`executive.knowledge.gripper_opening`, no wider than the gripper opens), and at
+    least :data:`RELEASE_CLEARANCE` wider than the fingers are now (where the world model
+    measures them), so the fingers clear the object wherever it was grasped."""
+    widest = arm_description(arm).gripper.max_opening
+    opening = min(knowledge.gripper_opening(object_type), widest)
+    measured = current_environment().world.gripper_opening(arm)
+    if measured is not None:
+        opening = max(opening, min(float(measured) + RELEASE_CLEARANCE, widest))
+    return opening
 
 
 def _closest_grasp(
@@ -577,6 +610,7 @@ def _placing(d: Designator) -> Iterator[Any]:
         tool_map = world.link_pose(tool_frame_of(arm), "map").to_transform()
         object_t_tool = obj_map.inverse() * tool_map
         standard_to_tool = arm_description(arm).standard_to_tool
+        opening = release_opening(otype, arm)
         if target is None:
             held_now = world.object_pose(name, base)
             targets: Any = [_put_back_pose(otype, object_t_tool, held_now, standard_to_tool)]
@@ -607,6 +641,7 @@ def _placing(d: Designator) -> Iterator[Any]:
                             "put_poses": (poses[2],),
                             "retract_poses": tuple(poses[3:]),
                             "grasp": grasp_name,
+                            "release_opening": opening,
                         },
                     )
 

@@ -339,7 +339,9 @@ class ProjectedWorldModel:
         """Would moving the arms to these joint values (``left``/``right``, one value per
         arm joint each; None: that arm stays) sweep the robot or what it holds through a
         free object (other than ``allowed_contacts`` and those it touches where the
-        motion starts or ends)?
+        motion starts), or end pressing one it did not touch at the start (a failure
+        too, ``swept=(names...)``; before, an object touched at the end was let pass,
+        and the park that ended against the bowl pushed it)?
         The path is the real controller's for a configuration move
         (:func:`projection._arm_planner.controller_path`: straight in joint space, routed
         around free objects where it can be), in this world. The failure is
@@ -377,7 +379,19 @@ class ProjectedWorldModel:
                         swept=tuple(f"{KITCHEN}/{link}" for link in inside),
                     ),
                 )
-            others -= touched_objects(world, others)
+            # an arm that ends against a free object it did not touch where it started
+            # presses into it: the real arm pushes it (seed 8 without projection: the
+            # park's upper arm ended against the bowl on the island and toppled it)
+            pressed = sorted(touched_objects(world, others))
+            if pressed:
+                return ProbeResult(
+                    False,
+                    ManipulationGoalInCollision(
+                        f"the {' and '.join(arms)} arm(s) would end pressing {', '.join(pressed)}",
+                        arms=tuple(arms),
+                        swept=tuple(pressed),
+                    ),
+                )
             if not others:
                 return ProbeResult(True)
             # the world's answer (remembered: the arms module asks it again when the

@@ -222,9 +222,11 @@ def test_placing_prefers_a_solution_that_sweeps_through_nothing(cup_world: Any) 
 
     chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 2  # the first swept; the second passed and was taken
+    # the first swept; the second passed and was taken (then its release probed: 3rd)
+    assert len(calls) == 3
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
     assert calls[1] == (chosen["arm"], probed)
+    assert calls[2] == (chosen["arm"], (*chosen["reach_poses"], *chosen["put_poses"]))
 
 
 def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
@@ -243,7 +245,8 @@ def test_placing_falls_back_to_clear_waypoints_when_every_solution_sweeps(
     with caplog.at_level(logging.WARNING, logger="plans.checks"):
         chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 5  # 4 swept, then the first one again, its waypoints only
+    # 4 swept, then the first one again, its waypoints only, and its release
+    assert len(calls) == 6
     probed = (*chosen["reach_poses"], *chosen["put_poses"], *chosen["retract_poses"])
     assert calls[4] == calls[0] == (chosen["arm"], probed)
     assert any("every solution sweeps" in r.getMessage() for r in caplog.records)
@@ -264,7 +267,7 @@ def test_placing_reaches_from_above_when_both_straight_reaches_sweep(cup_world: 
 
     chosen = robot.run(check)
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == 3
+    assert len(calls) == 4  # 2 swept, the third passed, its release
     first_reach = calls[0][1][:2]
     above, *rest = chosen["reach_poses"]
     assert tuple(rest) == first_reach  # the first solution's reach, from above
@@ -312,7 +315,8 @@ def test_delivering_tries_the_next_target_before_taking_a_swept_placing(
             ),
         )
     calls = cup_world.probe_calls["arm"]
-    assert len(calls) == solutions + 1  # all of the first target's swept, the next clear
+    # all of the first target's swept, the next clear (and its release)
+    assert len(calls) == solutions + 2
     assert any("not taking one here" in r.getMessage() for r in caplog.records)
     assert not any("taking one whose waypoints" in r.getMessage() for r in caplog.records)
     assert cup_world.attached() == []
