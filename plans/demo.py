@@ -55,6 +55,7 @@ from .atomic import park_arms
 from .environment_access import seal_if_open
 from .imagining import imagine_best, imagining
 from .island_check import Placed, PlacedState, check_placed, look_again
+from .navigation import park_clear
 from .transport import _drop_and_return
 
 __all__ = [
@@ -324,13 +325,11 @@ def _held() -> dict[str, str]:
 
 async def _position_arms(held: Mapping[str, str]) -> None:
     """A holding arm to ``carry``, a free one to ``park`` (failures ignored, logged)."""
-    configuration = {
-        f"{arm}_configuration": "carry" if arm in held else "park" for arm in arms_left_to_right()
-    }
-    await _ignoring_logged(
-        "position the arms",
-        lambda: perform(an.action(type="positioning-arm", **configuration)),
-    )
+    configuration = {arm: "carry" if arm in held else "park" for arm in arms_left_to_right()}
+    # probed first, stepping away or one arm at a time where the park would sweep: an arm
+    # interrupted at an object (the hand around the milk it was reaching for) swept it off
+    # the counter when parked straight from there
+    await _ignoring_logged("position the arms", lambda: park_clear(configuration))
 
 
 async def _ignoring_logged(what: str, body: Callable[[], Awaitable[object]]) -> None:

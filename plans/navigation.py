@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import cpl
@@ -31,6 +31,7 @@ from executive import (
     ArmSweepProbe,
     Designator,
     DesignatorError,
+    DesignatorInputError,
     Key,
     LocationDesignator,
     LookingHighLevelFailure,
@@ -54,6 +55,7 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    arms_left_to_right,
     base_frame,
     perform_ignoring,
     tally,
@@ -64,7 +66,6 @@ from ._common import (
     translating_failures,
 )
 from ._designators import _check_places, _location, default_of
-from .atomic import park_arms
 from .checks import check_navigating_collisions
 
 __all__ = [
@@ -374,7 +375,7 @@ async def _step_away() -> bool:
     return False
 
 
-async def park_clear(configuration: str = "carry") -> None:
+async def park_clear(configuration: str | Mapping[str, str] = "carry") -> None:
     """Park the arms (:func:`plans.atomic.park_arms`) without sweeping them, or what they
     hold, through an object, as far as the belief can tell: the world model's
     ``probe_arm_configuration`` checks the path the arm controller will take (and fails
@@ -391,14 +392,37 @@ async def park_clear(configuration: str = "carry") -> None:
        sweeps parks last anyway (logged, counted ``park-sweeps``): the robot has to
        carry.
 
+    ``configuration`` names one configuration for every arm, or one per arm (arm name ->
+    configuration, every arm of the robot: the final cleanup's holding arm to ``carry``,
+    a free one to ``park``).
+
     Deliberate addition: CRAM parked wherever the robot stood (after a pick-up, a failed
     grip, before driving off), both arms at once, and from next to a counter the park
     swept the neighbours off it."""
+    names = [arm.name for arm in the_robot().arms]
+    if isinstance(configuration, str):
+        per_arm = dict.fromkeys(names, configuration)
+    else:
+        per_arm = dict(configuration)
+        if sorted(per_arm) != sorted(names):
+            raise DesignatorInputError(
+                f"park_clear: give a configuration for each arm of the robot {names}, "
+                f"not for {sorted(per_arm)}"
+            )
+
+    async def park_all() -> None:
+        await perform(
+            an.action(
+                type="positioning-arm",
+                **{f"{arm}_configuration": per_arm[arm] for arm in arms_left_to_right()},
+            )
+        )
+
     world = current_environment().world
     if not isinstance(world, ArmSweepProbe):
-        await park_arms(configuration)
+        await park_all()
         return
-    joints = {arm.name: arm.state(configuration) for arm in the_robot().arms}
+    joints = {arm.name: arm.state(per_arm[arm.name]) for arm in the_robot().arms}
     result = world.probe_arm_configuration(left=joints.get("left"), right=joints.get("right"))
     for _ in range(PARK_BACK_OFFS):
         if result.ok:
@@ -411,7 +435,7 @@ async def park_clear(configuration: str = "carry") -> None:
         if not result.ok:
             log.warning("parking although it sweeps: %s", result.failure)
             tally("park-sweeps")
-        await park_arms(configuration)
+        await park_all()
         return
     waiting = list(joints)
     while waiting:
@@ -427,5 +451,5 @@ async def park_clear(configuration: str = "carry") -> None:
             log.warning("parking the %s arm although it sweeps (no clear park left)", arm)
             tally("park-sweeps")
         log.info("parking the %s arm alone", arm)
-        await perform(an.action(type="positioning-arm", **{f"{arm}_configuration": configuration}))
+        await perform(an.action(type="positioning-arm", **{f"{arm}_configuration": per_arm[arm]}))
         waiting.remove(arm)

@@ -52,6 +52,7 @@ action fails with :class:`executive.ResourceConflict` before anything moves (two
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 from collections.abc import Iterator, Sequence
@@ -143,7 +144,10 @@ async def pick_up(
        (:func:`verify_grasp`); a failed grip first backs out (:func:`retreat`);
        4. ``ObjectAttached`` (to the wrist link); 5. ``lifting`` (manipulation failures
        ignored, but not a gripper failure: the object fell out);
-       the grasp is verified again. Evaporation before step 4 leaves nothing attached.
+       the grasp is verified again. Evaporation before step 4 leaves nothing attached,
+       and the hand backs out the way it came (:func:`retreat`, shielded, at most
+       :data:`RETREAT_TIMEOUT` s; deliberate addition: CRAM left the hand where it was,
+       and the cleanup's park from there swept the object off its counter).
     Returns the object designator.
 
     Deliberate difference from CRAM: CRAM's ``lift`` ignored every manipulation failure,
@@ -152,11 +156,6 @@ async def pick_up(
     a lost object raises :class:`~executive.GripperClosedCompletely` from
     :func:`object_lost`, which first tells the world model with ``ObjectDetached``, so
     the fetch's regrasp scope looks for it again."""
-    await cpl.par(
-        cpl.tag("open", perform(an.action(type="setting-gripper", gripper=arm, position=opening))),
-        cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
-    )
-    await perform_ignoring(_arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure)
 
     async def grip() -> None:
         await perform(an.action(type="gripping", gripper=arm, effort=effort))
@@ -166,7 +165,23 @@ async def pick_up(
         await retreat(arm, reach_poses, opening)
         raise failure
 
-    await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
+    try:
+        await cpl.par(
+            cpl.tag(
+                "open", perform(an.action(type="setting-gripper", gripper=arm, position=opening))
+            ),
+            cpl.tag("reach", perform(_arm_action("reaching", arm, reach_poses))),
+        )
+        await perform_ignoring(
+            _arm_action("grasping", arm, grasp_poses), ManipulationLowLevelFailure
+        )
+        await cpl.with_failure_handling(grip, [(GripperLowLevelFailure, back_out)])
+    except asyncio.CancelledError:
+        # evaporated (Ctrl-C) with the hand on its way to, or around, an object it does
+        # not hold: back out the way it came (shielded) before anyone parks the arm: a
+        # park straight from the grasp swept the milk off the counter (seed 1)
+        await cpl.shielded(retreat(arm, reach_poses, opening), timeout=RETREAT_TIMEOUT)
+        raise
     emit(ObjectAttached(object_designator, arm, hand_link_of(arm)))
 
     async def lift() -> None:
@@ -184,6 +199,10 @@ async def pick_up(
     )
     verify_grasp(object_designator, arm, "lifting")
     return object_designator
+
+
+#: Simulated seconds the back-out of an evaporated pick-up may take (a few normally).
+RETREAT_TIMEOUT = 30.0
 
 
 @cpl.plan(name="retreat")
