@@ -320,3 +320,37 @@ def test_delivering_tries_the_next_target_before_taking_a_swept_placing(
     assert any("not taking one here" in r.getMessage() for r in caplog.records)
     assert not any("taking one whose waypoints" in r.getMessage() for r in caplog.records)
     assert cup_world.attached() == []
+
+
+def test_a_park_takes_a_configuration_per_arm(cup_world: Any) -> None:
+    """The final cleanup parks a holding arm to ``carry`` and a free one to ``park``:
+    probed and moved with each arm's own configuration."""
+    from functools import partial
+
+    from conftest import make_robot
+
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    calls = _scripted_park_probe(cup_world, ok=True)
+    robot.run(partial(park_clear, {"left": "park", "right": "carry"}))
+    wanted = {"left": PR2.arm("left").state("park"), "right": PR2.arm("right").state("carry")}
+    assert calls == [wanted]
+    (park,) = robot.calls("arms")
+    assert park.reference().arguments["left"] == wanted["left"]
+    assert park.reference().arguments["right"] == wanted["right"]
+
+
+def test_a_park_for_arms_the_robot_lacks_fails_before_anything_moves(cup_world: Any) -> None:
+    from functools import partial
+
+    from conftest import make_robot
+
+    from executive import DesignatorInputError
+    from plans.navigation import park_clear
+
+    robot = make_robot(cup_world)
+    calls = _scripted_park_probe(cup_world, ok=True)
+    with pytest.raises(DesignatorInputError, match=r"for each arm of the robot"):
+        robot.run(partial(park_clear, {"left": "park", "middle": "carry"}))
+    assert calls == [] and not robot.calls("arms") and not robot.calls("navigation")
