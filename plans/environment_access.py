@@ -269,15 +269,22 @@ def opening_of(container: ObjectDesignator) -> float | None:
     """How far (m) the world model has ``container`` open from its closed limit; None when
     it cannot tell (not an :class:`executive.ContainerStates`, or a container it does not
     know as jointed)."""
+    state = _container_state(container)
+    return None if state is None else max(0.0, state[0] - state[1])
+
+
+def _container_state(container: ObjectDesignator) -> tuple[float, float, float] | None:
+    """``(position, lower, upper)`` of ``container``'s joint in the world model; None when
+    it cannot tell (not an :class:`executive.ContainerStates`, or a container it does not
+    know as jointed)."""
     world = current_environment().world
     name = container.get("urdf-name")
     if not isinstance(world, ContainerStates) or not isinstance(name, str):
         return None
     try:
-        position, lower, _upper = world.container_state(name)
+        return world.container_state(name)
     except LookupError:
         return None
-    return max(0.0, position - lower)
 
 
 def free_arm(preferred: str = "left") -> str | None:
@@ -355,14 +362,10 @@ async def open_farther(location: LocationDesignator) -> bool:
         raise DesignatorError(
             f"{location.short()}: opening farther needs (in <container>)", location
         )
-    world = current_environment().world
-    name = container.get("urdf-name")
-    if not isinstance(world, ContainerStates) or not isinstance(name, str):
+    state = _container_state(container)
+    if state is None:
         return False
-    try:
-        position, _lower, upper = world.container_state(name)
-    except LookupError:
-        return False
+    position, _lower, upper = state
     room = upper - position
     arm = free_arm()
     if room < FARTHER_AT_LEAST or arm is None:
