@@ -53,6 +53,7 @@ action fails with :class:`executive.ResourceConflict` before anything moves (two
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 import math
 from collections.abc import Iterator, Sequence
@@ -162,7 +163,7 @@ async def pick_up(
         verify_grasp(object_designator, arm, "gripping", attached=False)
 
     async def back_out(failure: BaseException) -> None:
-        await retreat(arm, reach_poses, opening)
+        await retreat(arm, reach_poses, opening, grasp_poses)
         raise failure
 
     try:
@@ -180,7 +181,7 @@ async def pick_up(
         # evaporated (Ctrl-C) with the hand on its way to, or around, an object it does
         # not hold: back out the way it came (shielded) before anyone parks the arm: a
         # park straight from the grasp swept the milk off the counter (seed 1)
-        await cpl.shielded(retreat(arm, reach_poses, opening), timeout=RETREAT_TIMEOUT)
+        await cpl.shielded(retreat(arm, reach_poses, opening, grasp_poses), timeout=RETREAT_TIMEOUT)
         raise
     emit(ObjectAttached(object_designator, arm, hand_link_of(arm)))
 
@@ -205,18 +206,64 @@ async def pick_up(
 RETREAT_TIMEOUT = 30.0
 
 
+#: How far (m) the tool may be from the straight line through a reach's waypoints and
+#: still be on it (:func:`passed_waypoints`): the controller tracks tool lines to
+#: millimetres; farther, the hand is still on its free way to the first waypoint.
+ON_REACH = 0.03
+
+
+def passed_waypoints(tool: Sequence[float], path: Sequence[Pose]) -> int:
+    """How many waypoints of ``path`` (a reach's waypoints, then its grasp pose; all in
+    the frame ``tool`` is given in) the hand at ``tool`` has passed: ``i + 1`` when the
+    tool is nearest the straight segment from waypoint ``i`` to ``i + 1`` and within
+    :data:`ON_REACH` of it; 0 when it is farther from every segment (still on its free
+    way to the first waypoint). A path of one waypoint: 1 within :data:`ON_REACH` of it."""
+    h = np.asarray(tool, dtype=float)
+    points = [np.asarray(p.position, dtype=float) for p in path]
+    if not points:
+        return 0
+    if len(points) == 1:
+        return 1 if float(np.linalg.norm(h - points[0])) <= ON_REACH else 0
+    best, nearest = math.inf, 0
+    for i, (a, b) in enumerate(itertools.pairwise(points)):
+        ab = b - a
+        length = float(ab @ ab)
+        t = 0.0 if length < 1e-12 else min(1.0, max(0.0, float((h - a) @ ab) / length))
+        distance = float(np.linalg.norm(h - (a + t * ab)))
+        if distance < best - 1e-9:
+            best, nearest = distance, i
+    return nearest + 1 if best <= ON_REACH else 0
+
+
 @cpl.plan(name="retreat")
-async def retreat(arm: str, reach_poses: Sequence[Pose], opening: float) -> None:
-    """After a failed grip, back out the way the hand came: open the gripper to the
-    pick's ``opening`` and move the tool back through the reach waypoints in reverse
-    (failures of both ignored: it is a best effort before the caller's own recovery).
-    Deliberate addition: CRAM's regrasp parked the arms straight from the grasp pose, and
-    a park from there sweeps the hand through the object and its neighbours."""
+async def retreat(
+    arm: str, reach_poses: Sequence[Pose], opening: float, grasp_poses: Sequence[Pose] = ()
+) -> None:
+    """After a failed grip or an evaporated reach, back out the way the hand came: open
+    the gripper to the pick's ``opening`` and move the tool back through the reach
+    waypoints it has passed (:func:`passed_waypoints` on the reach's waypoints and then
+    ``grasp_poses``), in reverse (failures of both ignored: it is a best effort before
+    the caller's own recovery). A hand still on its free way to the first waypoint has
+    nothing to back out of and stays (sending it to the waypoints would take it closer
+    to the object: the Ctrl-C sweep's bowl, toppled by a "retreat" that went to the
+    pregrasp first). Deliberate addition: CRAM's regrasp parked the arms straight from
+    the grasp pose, and a park from there sweeps the hand through the object and its
+    neighbours."""
     await perform_ignoring(
         an.action(type="setting-gripper", gripper=arm, position=opening), GripperLowLevelFailure
     )
+    path = (*reach_poses, *grasp_poses)
+    if not path:
+        return
+    frame = path[0].frame
+    tool = current_environment().world.link_pose(tool_frame_of(arm), frame).position
+    passed = min(passed_waypoints(tool, path), len(reach_poses))
+    if passed == 0:
+        _log.info("the %s hand had not reached its first reach waypoint: nothing to back out", arm)
+        return
     await perform_ignoring(
-        _arm_action("retracting", arm, tuple(reversed(reach_poses))), ManipulationLowLevelFailure
+        _arm_action("retracting", arm, tuple(reversed(reach_poses[:passed]))),
+        ManipulationLowLevelFailure,
     )
 
 

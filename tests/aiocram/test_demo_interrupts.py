@@ -120,6 +120,33 @@ def test_ctrl_c_during_accessing_closes_the_drawer() -> None:
     assert _tasks(report.root, "sealing"), "the cleanup sealed the drawer"
 
 
+def test_ctrl_c_on_the_free_way_to_the_pregrasp_backs_out_through_nothing() -> None:
+    """Interrupted early in the bowl's reach (the arm still on its planned free way to
+    the first reach waypoint), the retreat moves the hand nowhere: it used to "back out"
+    to the reach waypoints first, taking the hand towards the bowl (seed 1 with
+    projection: the bowl toppled at the sink by the cleanup that followed)."""
+    reference = _demo(("bowl",), None)
+    (picked,) = _succeeded(_tasks(reference.root, "picking-up"))
+    reaching = _tasks(picked, "reaching")[0]
+    assert reaching.start_time is not None and reaching.end_time is not None
+    assert reaching.end_time - reaching.start_time > 0.5
+    at = reaching.start_time + 0.15 * (reaching.end_time - reaching.start_time)
+    before = reference.truth
+    assert before is not None
+
+    report = _demo(("bowl",), at)
+    (evaporated,) = _tasks(report.root, "picking-up")
+    assert evaporated.status.value is cpl.Status.EVAPORATED
+    assert _tasks(evaporated, "reaching")[0].status.value is cpl.Status.EVAPORATED
+    # the retreat set the gripper and did not send the hand to the reach waypoints
+    assert _tasks(evaporated, "setting-gripper")
+    assert not _tasks(evaporated, "retracting")
+    _assert_safe(report)
+    truth = report.truth
+    assert truth is not None
+    assert truth.objects["bowl-1"].where == "sink"
+
+
 #: How many evenly spaced interrupt times the sweep tries over the whole demo.
 SWEEP = 12
 

@@ -321,3 +321,26 @@ def test_sealing_acts_from_where_the_base_stopped_short(cup_world):
     robot.run(perform, an.action(type="sealing", location=location, distance=0.3))
     assert len(robot.calls("navigation")) == 2  # drove, drove again, stopped short: closed
     assert any(isinstance(e, ContainerClosed) for e in cup_world.events)
+
+
+def test_passed_waypoints_counts_only_the_reach_the_hand_has_travelled() -> None:
+    """The retreat of an evaporated pick-up backs out through the waypoints the hand has
+    passed only: a hand still on its free way to the first waypoint (off every straight
+    segment) has passed none; on a segment, the waypoints up to its start; at the grasp,
+    all of the reach."""
+    from executive import Pose
+    from plans.pick_place import ON_REACH, passed_waypoints
+
+    above = Pose((0.5, 0.0, 1.2), frame="base_footprint")
+    pregrasp = Pose((0.5, 0.0, 1.0), frame="base_footprint")
+    grasp = Pose((0.6, 0.0, 1.0), frame="base_footprint")
+    path = [above, pregrasp, grasp]
+    assert passed_waypoints((0.25, 0.15, 1.09), path) == 0  # on its free way
+    assert passed_waypoints((0.5, 0.0, 1.22), path) == 1  # near the first waypoint
+    assert passed_waypoints((0.5, 0.0, 1.1), path) == 1  # between above and pregrasp
+    assert passed_waypoints((0.55, 0.0, 1.0), path) == 2  # between pregrasp and grasp
+    assert passed_waypoints((0.6, 0.0, 1.0), path) == 2  # at the grasp
+    assert passed_waypoints((0.5 + ON_REACH * 1.5, 0.0, 1.1), path) == 0
+    assert passed_waypoints((0.5, 0.0, 1.0), [pregrasp]) == 1
+    assert passed_waypoints((0.5, 0.2, 1.0), [pregrasp]) == 0
+    assert passed_waypoints((0.5, 0.2, 1.0), []) == 0
