@@ -1,6 +1,8 @@
 """Imagining per transport and the projected five-object demo, this tree against another
 (e.g. the tree before arm motion planning was on), interleaved so that both see the same
-load on a shared machine; wall and CPU (process) seconds, medians.
+load on a shared machine; wall and CPU (process) seconds: means (garbage collection
+included) and medians, this tree's ratio to the other, and imagining's growth with the
+run's length (per transport of a demo).
 
     python bench/imagining.py --against /tmp/orig-imagspeed [--seeds 1,2,3] [--rounds 2]
 
@@ -119,6 +121,69 @@ def _median(values: list[float]) -> str:
     return f"{statistics.median(values):6.3f}" if values else "     -"
 
 
+def _mean(values: list[float]) -> str:
+    return f"{statistics.fmean(values):6.3f}" if values else "     -"
+
+
+def _ratio(ours: list[float], theirs: list[float], of: Any) -> str:
+    if not ours or not theirs or of(theirs) <= 0.0:
+        return "   -  "
+    return f"{of(ours) / of(theirs):5.2f}x"
+
+
+def summary(rows: dict[tuple[str, str], list[dict[str, Any]]], kinds: list[str]) -> list[str]:
+    """The report's lines: per kind, each tree's mean (garbage collection included: the
+    children run with the collector on, as the demo does) and median, wall and CPU, and
+    this tree's ratio to the other measured in the same run; for imagining, how the
+    figure grows with the run's length: the mean CPU seconds of the k-th transport of a
+    demo (later transports imagine a fuller table)."""
+    lines: list[str] = []
+    for kind in kinds:
+        figures: dict[str, dict[str, list[float]]] = {}
+        for label in ("this", "other"):
+            ms = rows.get((label, kind), [])
+            if kind == "projected":
+                figures[label] = {"wall": [m["wall"] for m in ms], "cpu": [m["cpu"] for m in ms]}
+                extra = f"planning {ms[0]['planning'] if ms else '-'}, delivered " + str(
+                    [m["delivered"] for m in ms]
+                )
+                what = "projected demo     "
+            else:
+                figures[label] = {
+                    "wall": [w for m in ms for w in m["wall"]],
+                    "cpu": [c for m in ms for c in m["cpu"]],
+                }
+                extra = f"delivered {[m['delivered'] for m in ms]}, simulated " + str(
+                    [round(m["sim"], 1) for m in ms]
+                )
+                what = "imagining/transport"
+            f = figures[label]
+            lines.append(
+                f"{what} {label:5s} mean wall {_mean(f['wall'])} s  cpu {_mean(f['cpu'])} s"
+                f" | median wall {_median(f['wall'])} s  cpu {_median(f['cpu'])} s"
+                f"  over {len(f['cpu'])} ({extra})"
+            )
+        this, other = figures["this"], figures["other"]
+        lines.append(
+            f"{what} ratio this/other: mean wall "
+            f"{_ratio(this['wall'], other['wall'], statistics.fmean)}"
+            f" cpu {_ratio(this['cpu'], other['cpu'], statistics.fmean)}"
+            f" | median wall {_ratio(this['wall'], other['wall'], statistics.median)}"
+            f" cpu {_ratio(this['cpu'], other['cpu'], statistics.median)}"
+        )
+        if kind == "imagining":
+            for label in ("this", "other"):
+                per: dict[int, list[float]] = {}
+                for m in rows.get((label, kind), []):
+                    for k, c in enumerate(m["cpu"], start=1):
+                        per.setdefault(k, []).append(c)
+                growth = "  ".join(
+                    f"#{k} {statistics.fmean(v):.3f}" for k, v in sorted(per.items())
+                )
+                lines.append(f"imagining by transport ({label}, mean cpu s): {growth}")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--against", type=Path, help="the other tree (its root directory)")
@@ -148,24 +213,8 @@ def main() -> None:
                     rows.setdefault((label, kind), []).append(m)
                     print(f"round {r + 1} seed {seed} {kind:9s} {label:5s} {json.dumps(m)}")
     print(f"\nthis: {trees['this']}\nother: {trees['other']}")
-    for kind in kinds:
-        for label in trees:
-            ms = rows[(label, kind)]
-            if kind == "projected":
-                print(
-                    f"projected demo  {label:5s} median wall {_median([m['wall'] for m in ms])} s"
-                    f"  cpu {_median([m['cpu'] for m in ms])} s  over {len(ms)} runs"
-                    f"  (planning {ms[0]['planning']}, delivered {[m['delivered'] for m in ms]})"
-                )
-            else:
-                walls = [w for m in ms for w in m["wall"]]
-                cpus = [c for m in ms for c in m["cpu"]]
-                print(
-                    f"imagining/transport {label:5s} median wall {_median(walls)} s"
-                    f"  cpu {_median(cpus)} s  over {len(cpus)} transports"
-                    f"  (delivered {[m['delivered'] for m in ms]},"
-                    f" simulated {[round(m['sim'], 1) for m in ms]} s)"
-                )
+    for line in summary(rows, kinds):
+        print(line)
 
 
 if __name__ == "__main__":
