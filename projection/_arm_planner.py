@@ -297,8 +297,10 @@ def reroute_cartesian(
     plan: bool = True,
 ) -> list[ArmConfig] | None:
     """A joint-space route (:func:`arm_path`, no fallback) replacing the Cartesian
-    ``path`` of a ``moving-tcp`` when that line (or, where the line had no IK solution
-    along it, the straight joint-space segment the arm then follows) sweeps the arm
+    ``path`` of a ``moving-tcp`` when that line (its configurations and the joint-space
+    segments between them, sampled as :func:`swept_objects` samples them; or, where the
+    line had no IK solution along it, the straight joint-space segment the arm then
+    follows) sweeps the arm
     through a free object other than those touched at its start or end (the object a
     reach approaches, the one the hand is next to), e.g. from the carry pose to a
     pregrasp straight through a neighbouring object; None (keep the line) when it is
@@ -316,15 +318,15 @@ def reroute_cartesian(
     world.move_joints(**path[-1][1])
     allowed |= touched_objects(world, free)
     others = free - allowed
-    hit = False
     if len(path) <= 2:  # no IK along the line: the straight joint-space segment
         world.move_joints(**path[0][1])
         hit = _path_hits(world, arms, path[0][1], path[-1][1], allowed)
-    for _t, config in path[1:-1]:
-        world.move_joints(**config)
-        if touched_objects(world, others):
-            hit = True
-            break
+    else:
+        # the segments between the line's configurations, not just the configurations:
+        # an IK step along the line may land on another branch of the arm's solutions
+        # (the forearm rolled 4.6 rad between two 2 cm steps of a retract), and the arm
+        # sweeps wide between them (seed 12: the fingers swung through a cup)
+        hit = bool(swept_objects(world, path, others))
     if not hit:
         return None
     world.move_joints(**start)
