@@ -812,6 +812,11 @@ def controller_trajectory(
     return TimedPath.at_joint_speed(path)
 
 
+#: How many other torso heights :func:`_plan_at_other_heights` tries for a reach whose plan
+#: failed at its IK's height.
+OTHER_HEIGHTS = 3
+
+
 def _plan_at_other_heights(
     world: World,
     model: World,
@@ -824,13 +829,14 @@ def _plan_at_other_heights(
     (``failed``), planned at the other heights of the torso's grid (its range in sixths,
     as :func:`clear_ik` tries them): higher ones first, nearest first (an arm that reaches
     over a counter clears what stands on it from above), the goal solved by the true
-    world's IK at each height from the arm's start. The first that plans: (height, its
-    arm path; the torso moves first); none: None, nothing counted (the caller counts the
-    fallback). Seed 14: the pregrasp above a bowl at torso 0.15 m lay in a pocket past a
-    cereal box that no plan reached within its budget (in the exact geometry at one seed
-    of two); the controller's fallback, the straight tool line, grazed the box and pushed
-    it 2.4 cm; at 0.25 m and above the plan is found. Leaves the robot where its checks
-    put it (the caller resets)."""
+    world's IK at each height from the arm's start; at most :data:`OTHER_HEIGHTS` of them
+    (a failed plan spends its whole budget, about half a second). The first that plans:
+    (height, its arm path; the torso moves first); none: None, nothing counted (the
+    caller counts the fallback). Seed 14: the pregrasp above a bowl at torso 0.15 m lay
+    in a pocket past a cereal box that no plan reached within its budget (in the exact
+    geometry at one seed of two); the controller's fallback, the straight tool line,
+    grazed the box and pushed it 2.4 cm; at 0.25 m and above the plan is found. Leaves
+    the robot where its checks put it (the caller resets)."""
     index = _joint_indices(world)[world.robot.torso.joint]
     info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
     lo, hi = float(info[8]), float(info[9])
@@ -839,7 +845,7 @@ def _plan_at_other_heights(
         (h for h in grid if abs(h - failed) > 1e-3),
         key=lambda h: (h < failed, abs(h - failed)),
     )
-    for h in heights:
+    for h in heights[:OTHER_HEIGHTS]:
         world.move_torso(h)
         world.move_joints(**{a: start[a] for a in arms})
         try:
