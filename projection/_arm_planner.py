@@ -11,9 +11,11 @@ collision mode, never from names of robots or objects:
   The planner (:mod:`projection._motion_planner`) checks the kitchen, the robot itself
   and every object the robot *believes in* (the belief world; what a hand holds rides
   attached to it); its own direct-path check keeps the straight joint line when that is
-  clear. A plan that fails (start or goal in collision in the belief, budget spent) is
-  logged and counted in ``World.motion_planning_fallbacks``; the arm then takes the old
-  controller's path.
+  clear. A free reach (``move-tcp``) whose plan fails at the torso height its IK chose
+  is planned at higher torso heights (:func:`_plan_at_other_heights`; the torso moves
+  first). A plan that fails (start or goal in collision in the belief, budget
+  spent; for a reach at every height) is logged and counted in
+  ``World.motion_planning_fallbacks``; the arm then takes the old controller's path.
 - **Straight tool lines** (:func:`cartesian_path`) where the task needs them: a
   ``move-tcp`` with a collision mode (grasping, lifting, putting, pulling, pushing: the
   target object may touch the fingers there), and one that starts with the gripper at a
@@ -297,8 +299,10 @@ def reroute_cartesian(
     plan: bool = True,
 ) -> list[ArmConfig] | None:
     """A joint-space route (:func:`arm_path`, no fallback) replacing the Cartesian
-    ``path`` of a ``moving-tcp`` when that line (or, where the line had no IK solution
-    along it, the straight joint-space segment the arm then follows) sweeps the arm
+    ``path`` of a ``moving-tcp`` when that line (its configurations and the joint-space
+    segments between them, sampled as :func:`swept_objects` samples them; or, where the
+    line had no IK solution along it, the straight joint-space segment the arm then
+    follows) sweeps the arm
     through a free object other than those touched at its start or end (the object a
     reach approaches, the one the hand is next to), e.g. from the carry pose to a
     pregrasp straight through a neighbouring object; None (keep the line) when it is
@@ -316,15 +320,15 @@ def reroute_cartesian(
     world.move_joints(**path[-1][1])
     allowed |= touched_objects(world, free)
     others = free - allowed
-    hit = False
     if len(path) <= 2:  # no IK along the line: the straight joint-space segment
         world.move_joints(**path[0][1])
         hit = _path_hits(world, arms, path[0][1], path[-1][1], allowed)
-    for _t, config in path[1:-1]:
-        world.move_joints(**config)
-        if touched_objects(world, others):
-            hit = True
-            break
+    else:
+        # the segments between the line's configurations, not just the configurations:
+        # an IK step along the line may land on another branch of the arm's solutions
+        # (the forearm rolled 4.6 rad between two 2 cm steps of a retract), and the arm
+        # sweeps wide between them (seed 12: the fingers swung through a cup)
+        hit = bool(swept_objects(world, path, others))
     if not hit:
         return None
     world.move_joints(**start)
@@ -500,13 +504,15 @@ def _plan_arms(
     start: ArmConfig,
     goal: ArmConfig,
     torso: float | None = None,
+    count: bool = True,
 ) -> TimedPath | None:
     """:func:`planned_arm_path` in time (the trajectories' own timing, one arm after the
     other), planned in ``model`` with its torso at ``torso`` (None: ``world``'s) and its
     other joints as they are. When ``model`` is not ``world`` (the real robot planning in
     its belief), the free objects of ``world`` are obstacles too where they really are
     (:func:`_add_seen_objects`). ``model`` is left as it was; a failure is counted in
-    ``world.motion_planning_fallbacks``."""
+    ``world.motion_planning_fallbacks`` (``count=False``: not, the caller tries another
+    goal first and counts)."""
     height = world.torso_height if torso is None else torso
     snap = model.snapshot()
     try:
@@ -529,8 +535,13 @@ def _plan_arms(
             try:
                 trajectory = planner.plan(start[arm], goal[arm], seed=1, allowed_contacts=touching)
             except ManipulationPoseUnreachable as e:
-                world.motion_planning_fallbacks += 1
-                _log.info("no planned path for the %s arm (%s): the controller routes it", arm, e)
+                if count:
+                    world.motion_planning_fallbacks += 1
+                    _log.info(
+                        "no planned path for the %s arm (%s): the controller routes it", arm, e
+                    )
+                else:
+                    _log.info("no planned path for the %s arm at torso %.3f (%s)", arm, height, e)
                 return None
             here = dict(configs[-1][1])
             t0 = times[-1]
@@ -776,17 +787,80 @@ def controller_trajectory(
     world.move_joints(**{a: start[a] for a in arms})
     plan = True
     if world.arm_motion_planning and is_free_motion(world, command, arms, args):
-        planned = _plan_arms(world, model, arms, start, goal, goal_torso)
+        reach = command == "move-tcp"
+        planned = _plan_arms(world, model, arms, start, goal, goal_torso, count=not reach)
+        if planned is None and reach:
+            other = _plan_at_other_heights(world, model, arms, args, start, goal_torso)
+            if other is not None:
+                goal_torso, planned = other
+            else:
+                world.motion_planning_fallbacks += 1
+                _log.info("no planned path at any torso height: the controller routes it")
+                world.move_torso(torso)
+                world.move_joints(**{a: start[a] for a in arms})
         if planned is not None:
             if abs(goal_torso - torso) > 1e-6:
                 lift = TimedPath.at_joint_speed([first, (goal_torso, first[1])])
                 planned = lift.then(planned)
+            world.move_torso(torso)
+            world.move_joints(**{a: start[a] for a in arms})
             return planned
         plan = False  # failed (counted): the same query would fail again
     world.move_torso(goal_torso)
     world.move_joints(**goal)
     path = controller_path(world, command, arms, args, torso, start, model, plan)
     return TimedPath.at_joint_speed(path)
+
+
+#: How many higher torso heights :func:`_plan_at_other_heights` tries for a reach whose
+#: plan failed at its IK's height.
+OTHER_HEIGHTS = 3
+
+
+def _plan_at_other_heights(
+    world: World,
+    model: World,
+    arms: Sequence[str],
+    args: Mapping[str, Any],
+    start: ArmConfig,
+    failed: float,
+) -> tuple[float, TimedPath] | None:
+    """A free reach (``move-tcp``) whose plan failed at the torso height its IK chose
+    (``failed``), planned at the higher heights of the torso's grid (its range in sixths,
+    as :func:`clear_ik` tries them), nearest first: an arm that reaches over a counter
+    clears what stands on it from above. Never lower: with lower heights tried too, a reach to
+    the cereal box planned at 0.22 m instead of the imagined 0.33 m was followed by a grasp
+    that missed, and the box ended toppled (seed 10 with projection; with higher heights
+    only, that run delivers all five objects). The goal is solved by the true
+    world's IK at each height from the arm's start; at most :data:`OTHER_HEIGHTS` of them
+    (a failed plan spends its whole budget, about half a second). The first that plans:
+    (height, its arm path; the torso moves first); none: None, nothing counted (the
+    caller counts the fallback). Seed 14: the pregrasp above a bowl at torso 0.15 m lay
+    in a pocket past a cereal box that no plan reached within its budget (in the exact
+    geometry at one seed of two); the controller's fallback, the straight tool line,
+    grazed the box and pushed it 2.4 cm; at 0.25 m and above the plan is found. Leaves
+    the robot where its checks put it (the caller resets)."""
+    index = _joint_indices(world)[world.robot.torso.joint]
+    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
+    lo, hi = float(info[8]), float(info[9])
+    grid = {round(lo + (hi - lo) * k / 6, 4) for k in range(7)}
+    heights = sorted(h for h in grid if h > failed + 1e-3)
+    for h in heights[:OTHER_HEIGHTS]:
+        world.move_torso(h)
+        world.move_joints(**{a: start[a] for a in arms})
+        try:
+            world.move_tcp(left=args.get("left"), right=args.get("right"))
+        except ManipulationPoseUnreachable:
+            continue
+        if abs(world.torso_height - h) > 1e-6:
+            continue  # the IK moved the torso: another grid height
+        goal = {a: world.arm_joints(a) for a in arms}
+        world.move_joints(**{a: start[a] for a in arms})
+        planned = _plan_arms(world, model, arms, start, goal, h, count=False)
+        if planned is not None:
+            _log.info("planned the reach at torso %.3f instead of %.3f", h, failed)
+            return h, planned
+    return None
 
 
 def swept_objects(world: World, path: Sequence[Config], others: set[str]) -> set[str]:

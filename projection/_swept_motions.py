@@ -151,15 +151,15 @@ def _tool_line(
 
     :func:`controller_path` computes the tool line (:func:`cartesian_path`) and hands it
     to :func:`reroute_cartesian`, which keeps it (returns None) when the torso ends more
-    than 1 mm from ``torso``, or when no intermediate configuration of the line, at the
-    start's torso height, touches a free object not touched at the start or end; then
-    :func:`swept_objects` samples the line again, every configuration and finer. So
+    than 1 mm from ``torso``, or when the line (sampled by :func:`swept_objects`, its
+    configurations and the segments between them) sweeps no free object not touched at
+    the start or end. So
     where the torso ends elsewhere the path is the line whatever it sweeps, and where the
     torso stays at ``torso`` all along and the line sweeps none of ``others`` (the free
     objects within the arm's reach that the start and goal do not touch; the rest is
     beyond reach of any configuration) the reroute would have found nothing either: the
-    path is the line, and its sweep is empty. The reroute's own pass over the line (a
-    contact query per configuration) is saved; the answer is the same. A line without
+    path is the line, and its sweep is empty. The reroute's own pass over the line is
+    saved; the answer is the same. A line without
     IK along it (two configurations: the reroute then samples the joint-space segment
     differently) or one that sweeps something: None."""
     goal = {a: world.arm_joints(a) for a in arms}
