@@ -269,21 +269,9 @@ def clear_ik(
     if not _arm_blocked(world, arms):
         return
     chosen = (world.torso_height, {a: world.arm_joints(a) for a in arms})
-    index = _joint_indices(world)[world.robot.torso.joint]
-    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
-    lo, hi = float(info[8]), float(info[9])
-    heights = sorted(
-        {round(lo + (hi - lo) * k / 6, 4) for k in range(7)} - {round(chosen[0], 4)},
-        key=lambda h: abs(h - torso),
-    )
+    heights = sorted(_torso_grid(world) - {round(chosen[0], 4)}, key=lambda h: abs(h - torso))
     for h in heights:
-        world.move_torso(h)
-        world.move_joints(**{a: start[a] for a in arms})
-        try:
-            world.move_tcp(left=args.get("left"), right=args.get("right"))
-        except ManipulationPoseUnreachable:
-            continue
-        if abs(world.torso_height - h) < 1e-6 and not _arm_blocked(world, arms):
+        if _solve_at_height(world, arms, args, start, h) and not _arm_blocked(world, arms):
             return
     world.move_torso(chosen[0])
     world.move_joints(**chosen[1])
@@ -812,6 +800,29 @@ def controller_trajectory(
     return TimedPath.at_joint_speed(path)
 
 
+def _torso_grid(world: World) -> set[float]:
+    """The torso heights the controller tries: its joint range in sixths (7 heights)."""
+    index = _joint_indices(world)[world.robot.torso.joint]
+    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
+    lo, hi = float(info[8]), float(info[9])
+    return {round(lo + (hi - lo) * k / 6, 4) for k in range(7)}
+
+
+def _solve_at_height(
+    world: World, arms: Sequence[str], args: Mapping[str, Any], start: ArmConfig, h: float
+) -> bool:
+    """Solve the goal tool poses of ``args`` by IK with the torso at ``h`` and the arms
+    from ``start``; whether it has a solution that keeps the torso at ``h`` (the robot is
+    left at it)."""
+    world.move_torso(h)
+    world.move_joints(**{a: start[a] for a in arms})
+    try:
+        world.move_tcp(left=args.get("left"), right=args.get("right"))
+    except ManipulationPoseUnreachable:
+        return False
+    return abs(world.torso_height - h) < 1e-6
+
+
 #: How many higher torso heights :func:`_plan_at_other_heights` tries for a reach whose
 #: plan failed at its IK's height.
 OTHER_HEIGHTS = 3
@@ -840,20 +851,10 @@ def _plan_at_other_heights(
     geometry at one seed of two); the controller's fallback, the straight tool line,
     grazed the box and pushed it 2.4 cm; at 0.25 m and above the plan is found. Leaves
     the robot where its checks put it (the caller resets)."""
-    index = _joint_indices(world)[world.robot.torso.joint]
-    info = pb.getJointInfo(world.robot_body, index, physicsClientId=world.client)
-    lo, hi = float(info[8]), float(info[9])
-    grid = {round(lo + (hi - lo) * k / 6, 4) for k in range(7)}
-    heights = sorted(h for h in grid if h > failed + 1e-3)
+    heights = sorted(h for h in _torso_grid(world) if h > failed + 1e-3)
     for h in heights[:OTHER_HEIGHTS]:
-        world.move_torso(h)
-        world.move_joints(**{a: start[a] for a in arms})
-        try:
-            world.move_tcp(left=args.get("left"), right=args.get("right"))
-        except ManipulationPoseUnreachable:
+        if not _solve_at_height(world, arms, args, start, h):
             continue
-        if abs(world.torso_height - h) > 1e-6:
-            continue  # the IK moved the torso: another grid height
         goal = {a: world.arm_joints(a) for a in arms}
         world.move_joints(**{a: start[a] for a in arms})
         planned = _plan_arms(world, model, arms, start, goal, h, count=False)
