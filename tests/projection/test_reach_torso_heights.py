@@ -17,8 +17,9 @@ import pytest
 import cpl
 from cpl.testing import MockClock
 from executive import Pose, a, perform
-from projection import FaultProfile, World, make_world_pair, with_real_robot
+from projection import FaultProfile, World, with_real_robot
 from projection._arm_planner import _plan_arms
+from tests.staged_worlds import staged_pair
 
 BASE = Pose((0.72, 0.72, 0.0), (0.0, 0.0, 0.08965822, 0.99597259))
 TORSO = 0.15
@@ -51,18 +52,8 @@ PREGRASP = Pose((0.648, 0.078, 1.088), (0.707, 0.0, -0.707, 0.0), "base_footprin
 
 @pytest.fixture()
 def counter() -> Iterator[tuple[World, World]]:
-    true, belief = make_world_pair(0, objects={})
+    true, belief = staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=ARMS)
     try:
-        for w, k in ((true, 0), (belief, 1)):
-            w.drive(BASE)
-            w.move_torso(TORSO)
-            w.move_joints(**ARMS)
-            for arm in ARMS:
-                w.gripper(0.1, arm)
-            for name, (otype, *poses) in OBJECTS.items():
-                pose = poses[k]
-                if pose is not None:
-                    w.spawn_object(name, otype, pose, allow_overlap=True)
         yield true, belief
     finally:
         true.close()

@@ -17,8 +17,9 @@ import pytest
 import cpl
 from cpl.testing import MockClock
 from executive import Pose, a, perform
-from projection import FaultProfile, World, make_world_pair, with_real_robot
+from projection import FaultProfile, World, with_real_robot
 from projection._arm_planner import cartesian_path, swept_objects, touched_objects
+from tests.staged_worlds import staged_pair
 
 BASE = Pose((-0.12, 0.88, 0.0), (0.0, 0.0, -0.99818179, 0.06027528))
 TORSO = 0.33
@@ -53,15 +54,8 @@ RETRACT = Pose((0.565, -0.272, 1.035), (0.0, 0.0, -0.604, 0.797), "base_footprin
 def placed() -> Iterator[tuple[World, World]]:
     """The true world and the belief, the robot's right gripper open at the box it has
     just put down, the cup next to it."""
-    true, belief = make_world_pair(0, objects={})
+    true, belief = staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=("right",))
     try:
-        for w, k in ((true, 1), (belief, 2)):
-            w.drive(BASE)
-            w.move_torso(TORSO)
-            w.move_joints(**ARMS)
-            w.gripper(0.1, "right")
-            for name, (otype, *poses) in OBJECTS.items():
-                w.spawn_object(name, otype, poses[k - 1], allow_overlap=True)
         yield true, belief
     finally:
         true.close()
