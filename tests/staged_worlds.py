@@ -3,23 +3,25 @@ where each world had them (tests that rebuild a campaign run's situation)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 
 from executive import Pose
 from projection import World, make_world_pair
 
 
+@contextmanager
 def staged_pair(
     base: Pose,
     torso: float,
     arms: Mapping[str, Sequence[float]],
     objects: Mapping[str, tuple[str, Pose | None, Pose | None]],
     open_grippers: Iterable[str],
-) -> tuple[World, World]:
+) -> Iterator[tuple[World, World]]:
     """(true, belief): both with the robot at ``base``, the torso at ``torso``, the arms at
     ``arms`` and the grippers of ``open_grippers`` open; ``objects``: name -> (type, its
-    pose in the true world, in the belief), None where that world lacks it. The caller
-    closes both."""
+    pose in the true world, in the belief), None where that world lacks it. Both are
+    closed on leaving the context."""
     true, belief = make_world_pair(0, objects={})
     try:
         for world, k in ((true, 0), (belief, 1)):
@@ -32,8 +34,7 @@ def staged_pair(
                 pose = poses[k]
                 if pose is not None:
                     world.spawn_object(name, otype, pose, allow_overlap=True)
-    except BaseException:
+        yield true, belief
+    finally:
         true.close()
         belief.close()
-        raise
-    return true, belief

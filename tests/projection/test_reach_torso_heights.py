@@ -52,12 +52,8 @@ PREGRASP = Pose((0.648, 0.078, 1.088), (0.707, 0.0, -0.707, 0.0), "base_footprin
 
 @pytest.fixture()
 def counter() -> Iterator[tuple[World, World]]:
-    true, belief = staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=ARMS)
-    try:
-        yield true, belief
-    finally:
-        true.close()
-        belief.close()
+    with staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=ARMS) as worlds:
+        yield worlds
 
 
 def test_at_the_torso_height_the_ik_chose_no_plan_reaches_the_pregrasp(

@@ -54,12 +54,8 @@ RETRACT = Pose((0.565, -0.272, 1.035), (0.0, 0.0, -0.604, 0.797), "base_footprin
 def placed() -> Iterator[tuple[World, World]]:
     """The true world and the belief, the robot's right gripper open at the box it has
     just put down, the cup next to it."""
-    true, belief = staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=("right",))
-    try:
-        yield true, belief
-    finally:
-        true.close()
-        belief.close()
+    with staged_pair(BASE, TORSO, ARMS, OBJECTS, open_grippers=("right",)) as worlds:
+        yield worlds
 
 
 def test_the_injected_retract_line_swings_through_the_cup_between_its_steps(
