@@ -669,10 +669,9 @@ def _gripper_position(d: Designator, gripper: Any, position: Any) -> float:
 def _releasing(d: Designator) -> Iterator[Any]:
     gripper = _gripper(d)
     position = d.get("position")
-    if position is None:
-        yield release, {"gripper": gripper}
-    else:
-        yield release, {"gripper": gripper, "position": _gripper_position(d, gripper, position)}
+    if position is not None:
+        position = _gripper_position(d, gripper, position)
+    yield release, {"gripper": gripper, "position": position}
 
 
 @cpl.plan(name="open-or-close-gripper")

@@ -220,12 +220,10 @@ def passed_waypoints(tool: Sequence[float], path: Sequence[Pose]) -> int:
     way to the first waypoint). A path of one waypoint: 1 within :data:`ON_REACH` of it."""
     h = np.asarray(tool, dtype=float)
     points = [np.asarray(p.position, dtype=float) for p in path]
-    if not points:
-        return 0
-    if len(points) == 1:
-        return 1 if float(np.linalg.norm(h - points[0])) <= ON_REACH else 0
+    # one waypoint: a segment of length 0
+    segments = list(itertools.pairwise(points)) or [(q, q) for q in points]
     best, nearest = math.inf, 0
-    for i, (a, b) in enumerate(itertools.pairwise(points)):
+    for i, (a, b) in enumerate(segments):
         ab = b - a
         length = float(ab @ ab)
         t = 0.0 if length < 1e-12 else min(1.0, max(0.0, float((h - a) @ ab) / length))

@@ -779,19 +779,17 @@ def controller_trajectory(
         planned = _plan_arms(world, model, arms, start, goal, goal_torso, count=not reach)
         if planned is None and reach:
             other = _plan_at_other_heights(world, model, arms, args, start, goal_torso)
+            world.move_torso(torso)  # its IK at the other heights moved the robot
+            world.move_joints(**{a: start[a] for a in arms})
             if other is not None:
                 goal_torso, planned = other
             else:
                 world.motion_planning_fallbacks += 1
                 _log.info("no planned path at any torso height: the controller routes it")
-                world.move_torso(torso)
-                world.move_joints(**{a: start[a] for a in arms})
         if planned is not None:
             if abs(goal_torso - torso) > 1e-6:
                 lift = TimedPath.at_joint_speed([first, (goal_torso, first[1])])
                 planned = lift.then(planned)
-            world.move_torso(torso)
-            world.move_joints(**{a: start[a] for a in arms})
             return planned
         plan = False  # failed (counted): the same query would fail again
     world.move_torso(goal_torso)
