@@ -14,8 +14,8 @@ measured it on this machine:
 4. otherwise RRTConnect (single-threaded: PRM deadlocks with a Python checker; extensions
    of at most :data:`RANGE` rad) on a fresh ``SimpleSetup`` seeded right before it is
    built, stopped by a budget of validity checks (deterministic) with a wall-clock
-   timeout as a safety net only; then ``simplifyMax``
-   (deterministic; time-bounded simplification is not); within one query each
+   timeout as a safety net only; then one bounded round of simplification
+   (:func:`_simplify`; deterministic: time-bounded simplification is not); within one query each
    configuration is scanned once (the sampler, the straight line, shortcutting and the
    retry after a graze ask again for about one state in eight: answered from a memo).
    Bullet keeps contact manifolds between scans, so the contact points a scan reports
@@ -240,6 +240,24 @@ def time_parameterise(
     return np.array(rows), np.array(times)
 
 
+def _simplify(simplifier: og.PathSimplifier, path: og.PathGeometric) -> None:
+    """Shorten a sampled path in one bounded round, all of it drawing on OMPL's seeded
+    generator: vertex reduction, collapsing close vertices, one partial shortcut (which
+    cuts across segments, not only between vertices) and a last vertex reduction.
+
+    Not ``simplifyMax``, which repeats that round, with B-spline smoothing in between,
+    until a round changes nothing. Both were applied to the same 117 sampled paths of the
+    seed-3 demo at 10 % faults: this one spent 55 000 validity checks against 336 000, and
+    left 5.1 vertices a path against 6.4. The paths are 12 % longer in joint space
+    (7.43 rad against 6.61), but the timed trajectories are as long: 7.70 s against 7.73 s.
+    Every vertex is a stop, and the stops saved make up for the distance. On that run the
+    saving was about a quarter of the run's wall time."""
+    simplifier.reduceVertices(path)
+    simplifier.collapseCloseVertices(path)
+    simplifier.partialShortcutPath(path)
+    simplifier.reduceVertices(path)
+
+
 def _dense(vertices: np.ndarray, step: float) -> Iterable[np.ndarray]:
     """The states along the polyline at most ``step`` apart (L2), endpoints included."""
     yield vertices[0]
@@ -288,7 +306,10 @@ class _Checker:
         m = self.model
         c = m.client
         pb.resetJointStatesMultiDof(
-            m.robot, self.chain.indices, [[float(v)] for v in q], physicsClientId=c
+            m.robot,
+            self.chain.indices,
+            np.asarray(q, dtype=float).reshape(-1, 1).tolist(),
+            physicsClientId=c,
         )
         for h in self.held:
             ls = pb.getLinkState(m.robot, h.link, computeForwardKinematics=1, physicsClientId=c)
@@ -932,11 +953,7 @@ class ArmMotionPlanner:
             )
         path = ss.getSolutionPath()
         simplifier = ss.getPathSimplifier()
-        # simplifyMax (vertex reduction, shortcutting, collapsing close vertices, until no
-        # progress; not time-bounded: deterministic): fewer vertices than one rope
-        # shortcut and vertex reduction (8 vs 12 on carry -> pregrasp past a cereal box),
-        # so fewer stops and a shorter trajectory for the real robot, in fewer checks
-        simplifier.simplifyMax(path)
+        _simplify(simplifier, path)
         vertices = np.array([s[0:n] for s in path.getStates()], dtype=float)
         vertices[0] = a
         if float(np.max(np.abs(vertices[-1] - b))) > 1e-9:

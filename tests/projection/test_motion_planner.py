@@ -675,3 +675,35 @@ def test_an_arm_tucked_between_its_torso_and_the_other_arm_plans_its_way_out() -
                     assert exact.contacts(a + (j / k) * (b - a)) == []
         finally:
             planner.close()
+
+
+def test_simplification_is_one_bounded_round(sink: World, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sampled path is simplified in one round (``_simplify``), not by OMPL's
+    ``simplifyMax`` (rounds with B-spline smoothing until nothing changes): the same query
+    spends fewer validity checks and its timed trajectory is about as long (on this
+    query: 3 529 checks against 5 332, 12.3 s against 15.7 s); the path stays clear in
+    the exact geometry."""
+    from ompl import geometric as og
+
+    from projection import _motion_planner
+
+    start, goal = sink.arm_joints("right"), _pregrasp(sink)
+    results = {}
+    for name in ("round", "max"):
+        if name == "max":
+            monkeypatch.setattr(
+                _motion_planner,
+                "_simplify",
+                lambda s, p: og.PathSimplifier.simplifyMax(s, p),
+            )
+        planner = _planner(sink)
+        try:
+            t = planner.plan(start, goal, seed=3)
+            assert t.planned
+            _exactly_clear(planner, t, 0.005)
+            results[name] = (t.checks, t.duration)
+        finally:
+            planner.close()
+    (checks, duration), (max_checks, max_duration) = results["round"], results["max"]
+    assert checks < max_checks, results
+    assert duration <= 1.25 * max_duration, results
