@@ -239,6 +239,13 @@ class CollisionModel:
         self._movable_joints: dict[tuple[int, int], frozenset[int]] = {}
         self.objects: dict[str, int] = {}
         self.held: dict[str, _Held] = {}
+        # invariant: every (object body, robot link) pair whose contacts are switched off
+        # (:meth:`ignore_contacts`: a held object and the fingers holding it). PyBullet
+        # keeps a pair filter by body id and hands a removed body's id to the next body
+        # created, so :meth:`sync` switches these back on before it removes the bodies:
+        # otherwise the next object to get the id (a bowl put down since) is one the
+        # fingers pass through unseen
+        self._ignored: set[tuple[int, int]] = set()
         self._self_pairs: dict[tuple[int, ...], frozenset[tuple[int, int]]] = {}
         # invariant: the self pairs Bullet makes contacts for (None: all, as loaded)
         self._focus: frozenset[tuple[int, int]] | None = None
@@ -359,6 +366,11 @@ class CollisionModel:
             if movable:
                 pb.resetJointStatesMultiDof(dst, movable, [[v] for v in values], physicsClientId=c)
         self._place_proxies()  # a drawer may have moved
+        for ignored_body, ignored_link in self._ignored:
+            pb.setCollisionFilterPair(
+                self.robot, ignored_body, ignored_link, -1, 1, physicsClientId=c
+            )
+        self._ignored.clear()
         for body in self.objects.values():
             pb.removeBody(body, physicsClientId=c)
         self.objects.clear()
@@ -380,6 +392,13 @@ class CollisionModel:
                 gp, gq = pb.multiplyTransforms(ip, iq, pose.position, pose.orientation)
                 self.held[name] = _Held(body, index, (tuple(gp), tuple(gq)))
         return True
+
+    def ignore_contacts(self, body: int, link: int) -> None:
+        """Switch off contacts between the object ``body`` and the robot's ``link`` (a
+        held object resting in the gripper) until the next :meth:`sync` that copies the
+        objects again."""
+        pb.setCollisionFilterPair(self.robot, body, link, -1, 0, physicsClientId=self.client)
+        self._ignored.add((body, link))
 
     def _movable(self, client: int, body: int, joint: int) -> bool:
         """Whether ``body``'s ``joint`` (in ``client``) is not fixed (memoised per body:

@@ -282,9 +282,7 @@ class _Checker:
         self.held_bodies = frozenset(h.body for h in self.held)
         for h in self.held:  # the held object rests in the gripper: no contacts there
             for link in chain.touch_links:
-                pb.setCollisionFilterPair(
-                    model.robot, h.body, link, -1, 0, physicsClientId=model.client
-                )
+                model.ignore_contacts(h.body, link)
         self.calls = 0
         # (held body, robot link) contacts present at the start (tolerate_held_contacts)
         self.held_touch: set[tuple[int, int]] = set()
