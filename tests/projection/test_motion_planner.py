@@ -717,8 +717,9 @@ def test_contacts_switched_off_for_a_held_object_are_switched_on_before_it_goes(
     it. PyBullet filters pairs by body id and can keep a filter past the body's removal,
     and the model re-creates its objects at every sync: a filter left behind can blind
     the fingers to whichever object gets that id later. Seed 29 of the campaign without
-    projection: the filter from a bowl carried earlier outlived 35 syncs, the exact model reported no contact with the bowl
-    standing on the island, and a retract planned through it knocked it 4 cm. Every pair
+    projection: the filter from a bowl carried earlier outlived 35 syncs, the exact model
+    reported no contact with the bowl standing on the island, and a retract planned
+    through it knocked it 4 cm. Every pair
     switched off is switched on again before its body is removed."""
     calls: list[tuple[str, int, int, int]] = []
     real_filter, real_remove = pb.setCollisionFilterPair, pb.removeBody
