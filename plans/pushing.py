@@ -126,6 +126,15 @@ PUSH_ARM_ANGLE = math.radians(80)
 PUSH_BASE_DISTANCES = (0.45, 0.4)
 PUSH_BASE_SIDES = (0.2, -0.2, 0.3, -0.3)
 PUSH_BASE_YAWS = 16
+#: For a push on a counter the base stands in front of the counter, farther from the
+#: hand (it comes down on the counter, behind the object): this far from the push's
+#: start (m), turned so that the start is at these bearings (rad) from its heading (to
+#: the side: the arm on that side reaches farther across the counter).
+PUSH_COUNTER_BASE_DISTANCES = (0.55, 0.65, 0.75)
+PUSH_COUNTER_BASE_BEARINGS = tuple(math.radians(a) for a in (0.0, 45.0, -45.0, 80.0, -80.0))
+#: An object no taller than this (m) may be pushed towards the robot: it passes under the
+#: forearm, which rises from a wrist held above the hand pointing down (:func:`_beside`).
+PUSH_LOW_OBJECT = 0.1
 
 
 class ObjectUnpushable(HighLevelFailure):
@@ -286,17 +295,28 @@ def _beside(base: Pose, end: tuple[float, float], d: tuple[float, float]) -> boo
     push ends, at least :data:`PUSH_ARM_ANGLE` from its direction): then the forearm,
     which slopes from the hand towards the robot, is not above the object's path.
     Measured: pushing a milk carton towards the robot, its top caught under the forearm
-    and it was flung 1.3 m across the kitchen."""
+    and it was flung 1.3 m across the kitchen. Required for objects taller than
+    :data:`PUSH_LOW_OBJECT` only."""
     vx, vy = base.position[0] - end[0], base.position[1] - end[1]
     norm = math.hypot(vx, vy)
     return norm > 1e-9 and (vx * d[0] + vy * d[1]) / norm <= math.cos(PUSH_ARM_ANGLE)
 
 
-def _base_poses(mid: tuple[float, float]) -> Iterator[Pose]:
-    """Base poses around the push's start (see :data:`PUSH_BASE_DISTANCES`), the
-    nearest to the robot first."""
+def _base_poses(mid: tuple[float, float], on_floor: bool = True) -> Iterator[Pose]:
+    """Base poses around the push's start (see :data:`PUSH_BASE_DISTANCES`; on a counter
+    :data:`PUSH_COUNTER_BASE_DISTANCES`), the nearest to the robot first."""
     robot = _world().robot_pose().position
     poses = []
+    if not on_floor:
+        for k in range(PUSH_BASE_YAWS):
+            around = 2 * math.pi * k / PUSH_BASE_YAWS  # from the start to the base
+            for d in PUSH_COUNTER_BASE_DISTANCES:
+                x, y = mid[0] + d * math.cos(around), mid[1] + d * math.sin(around)
+                for bearing in PUSH_COUNTER_BASE_BEARINGS:
+                    poses.append(Pose.from_xyz_yaw(x, y, 0.0, around + math.pi - bearing))
+        poses.sort(key=lambda p: math.dist(p.position[:2], robot[:2]))
+        yield from poses
+        return
     for k in range(PUSH_BASE_YAWS):
         yaw = 2 * math.pi * k / PUSH_BASE_YAWS
         c, s = math.cos(yaw), math.sin(yaw)
@@ -309,11 +329,16 @@ def _base_poses(mid: tuple[float, float]) -> Iterator[Pose]:
 
 
 def push_plans(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None = None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> Iterator[PushPlan]:
     """The pushes the belief says work, best first (see :func:`plan_push`); the first is
     found before anything is yielded, so a caller that takes none still gets
-    :class:`ObjectUnpushable` from its first ``next``."""
+    :class:`ObjectUnpushable` from its first ``next``. ``angles``: the directions tried,
+    as angles (rad) from ``direction`` (:data:`PUSH_ANGLES`; ``(0.0,)``: only along it)."""
     norm = math.hypot(*direction)
     if not math.isfinite(norm) or norm < 1e-9:
         raise DesignatorInputError(
@@ -321,11 +346,22 @@ def push_plans(
         )
     if not (isinstance(distance, (int, float)) and math.isfinite(distance) and distance > 0):
         raise DesignatorInputError(f"push distance must be > 0 (m), got {distance!r}")
-    return _push_plans(name, direction, distance, arm)
+    if not angles or not all(
+        isinstance(x, (int, float)) and abs(x) < math.pi / 2 - 0.1 for x in angles
+    ):
+        raise DesignatorInputError(
+            f"push angles must be a non-empty sequence of angles (rad) within 80 degrees of "
+            f"the direction, got {angles!r}"
+        )
+    return _push_plans(name, direction, distance, arm, tuple(float(x) for x in angles))
 
 
 def plan_push(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None = None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> PushPlan:
     """Find a push of the object ``name`` (known to the belief by name) ``distance`` m
     along ``direction`` (map x/y; normalised here) or within :data:`PUSH_ANGLES` of it
@@ -337,22 +373,30 @@ def plan_push(
     per direction (none where the hand would come down on a counter);
     :class:`executive.DesignatorInputError` for a zero direction or a distance that is
     not positive."""
-    return next(push_plans(name, direction, distance, arm))
+    return next(push_plans(name, direction, distance, arm, angles))
 
 
 def _push_plans(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None,
+    angles: tuple[float, ...],
 ) -> Iterator[PushPlan]:
     norm = math.hypot(*direction)
     wanted = (direction[0] / norm, direction[1] / norm)
     world = _world()
     arms = (arm,) if arm is not None else arm_names()
     obj = world.object_pose(name)
-    (lx, ly, lz), (hx, hy, _hz) = world.object_aabb(name)
+    (lx, ly, lz), (hx, hy, hz) = world.object_aabb(name)
     cx, cy = obj.position[0], obj.position[1]
+    # on a counter the hand comes down on it, beside the object; on the floor, outside
+    # every counter's footprint
+    on_floor = lz < current_environment().kitchen.floor_height
+    low = hz - lz <= PUSH_LOW_OBJECT
     found = 0
     why: list[str] = []
-    for angle in PUSH_ANGLES:
+    for angle in angles:
         d = _rotated(wanted, angle)
         along = distance / math.cos(angle)
         blocked = push_path_clear(name, d, along)
@@ -380,14 +424,14 @@ def _push_plans(
         across = _half_extent((lx, ly), (hx, hy), (-d[1], d[0])) * 2
         opening = {hand: _push_opening(across, hand) for hand in arms}
         tips = max(opening.values()) / 2 + PUSH_HAND_CLEARANCE
-        if not _room_for_the_hand(start, (-d[1], d[0]), tips):
+        if on_floor and not _room_for_the_hand(start, (-d[1], d[0]), tips):
             why.append(f"{math.degrees(angle):+.0f} deg: no room for the hand behind it")
             continue
         probes = 0
-        for base in _base_poses(start):
+        for base in _base_poses(start, on_floor):
             if probes >= PUSH_PROBES:
                 break
-            if not _beside(base, end, d):
+            if not low and not _beside(base, end, d):
                 continue
             if not world.probe_base_pose(base).ok:
                 continue
@@ -416,9 +460,11 @@ async def push_object(
     direction: tuple[float, float],
     distance: float,
     arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> ObjectDesignator:
     """Push a perceived object ``distance`` m along ``direction`` (map) with one hand
-    (:func:`plan_push` chooses the direction within :data:`PUSH_ANGLES`, the arm and the
+    (:func:`plan_push` chooses the direction within ``angles`` of it (default
+    :data:`PUSH_ANGLES`), the arm and the
     base pose in the belief first; :class:`ObjectUnpushable` before anything moves when
     none works): drive there, close the gripper, reach above the start (a free motion,
     planned), then the contact motion (``pushing``: down beside the object, along the
@@ -430,7 +476,7 @@ async def push_object(
         raise DesignatorInputError(
             f"push-object needs an object designator with a name, got {object_designator!r}"
         )
-    plans = push_plans(name, direction, distance, arm)
+    plans = push_plans(name, direction, distance, arm, angles)
     push = next(plans)  # ObjectUnpushable before anything moves
     for attempt in range(PUSH_ATTEMPTS):
         if attempt:

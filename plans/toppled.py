@@ -37,6 +37,7 @@ __all__ = [
     "ObjectToppledUngraspable",
     "check_graspable_as_it_lies",
     "lying_grasps",
+    "ungraspable_as_it_lies",
 ]
 
 log = logging.getLogger(__name__)
@@ -81,12 +82,25 @@ def check_graspable_as_it_lies(
     """Raise :class:`ObjectToppledUngraspable` (logged at WARNING, counted as
     ``toppled-ungraspable``) when the object lies and no grasp of its type fits any of
     the robot's arms (:func:`lying_grasps`), naming the face that faces up, the widths
-    the fingers would close across, and the grippers' openings. An upright object, or a
-    lying one with a grasp that fits: nothing happens."""
+    the fingers would close across, and the grippers' openings
+    (:func:`ungraspable_as_it_lies`). An upright object, or a lying one with a grasp
+    that fits: nothing happens."""
+    why = ungraspable_as_it_lies(object_type, object_transform)
+    if why is None:
+        return
+    log.warning("%s cannot be picked as it lies: %s", object_label(object_designator), why)
+    tally("toppled-ungraspable")
+    raise ObjectToppledUngraspable(why, object=object_label(object_designator))
+
+
+def ungraspable_as_it_lies(object_type: str, object_transform: Transform | Pose) -> str | None:
+    """Why no grasp of ``object_type`` fits any of the robot's arms from above as
+    ``object_transform`` has it lying (see :func:`check_graspable_as_it_lies`); None for
+    an upright object or a lying one with a grasp that fits. Nothing is logged."""
     grasps = knowledge.grasps(object_type)
     arms = arm_names()
     if any(lying_grasps(object_type, object_transform, grasps, arm) for arm in arms):
-        return
+        return None
     from_above = [
         g
         for g in grasps
@@ -106,10 +120,7 @@ def check_graspable_as_it_lies(
         )
     else:
         reason = "none of its type's grasps approaches it from above as it lies"
-    why = (
+    return (
         f"the {object_type} lies toppled on its {a:.2f} x {b:.2f} m face: {reason}; "
         f"the grippers open {openings}"
     )
-    log.warning("%s cannot be picked as it lies: %s", object_label(object_designator), why)
-    tally("toppled-ungraspable")
-    raise ObjectToppledUngraspable(why, object=object_label(object_designator))
