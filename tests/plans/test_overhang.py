@@ -126,3 +126,50 @@ def test_a_cereal_box_on_its_broad_face_is_pushed_over_the_edge_and_delivered(
     finally:
         true.close()
         belief.close()
+
+
+def test_imagined_the_push_leaves_the_box_overhanging_and_the_transport_goes_on(
+    mrun: Any,
+) -> None:
+    """In projection no contact moves a pushed object: the imagination puts the box where
+    the push was planned to leave it (sticking out over the edge), so the imagined
+    transport picks it by that end and delivers it, as the real one does. Before, the
+    imagined transport failed with ``ObjectToppledUngraspable``."""
+    from executive import an, perform
+    from plans.demo import fetch_location, place_location
+    from projection import with_projected_robot
+
+    true, belief = make_world_pair(0, belief_objects="exact")
+    true.close()
+    name = "breakfast-cereal-1"
+    try:
+        x, y, _z = belief.object_pose(name).position
+        (_, _, _), (_, _, top) = belief.link_aabb("sink_area_surface")
+        belief.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
+        settle(belief, 240)
+        assert _tilt(belief.object_pose(name)) > math.radians(80)
+        counts: dict[str, int] = {}
+
+        async def main() -> Any:
+            with retry_ledger() as ledger:
+                try:
+                    async with with_projected_robot(belief):
+                        return await perform(
+                            an.action(
+                                type="transporting",
+                                object=an.object(type=CEREAL, name=name),
+                                location=fetch_location(CEREAL),
+                                target=place_location(CEREAL, bowl_placed=False),
+                                projection_reasoning=False,
+                            )
+                        )
+                finally:
+                    counts.update(ledger)
+
+        mrun(main)
+        assert counts.get("overhang-pushes", 0) >= 1
+        (lx, ly, _), (hx, hy, hz) = belief.link_aabb("kitchen_island_surface")
+        x, y, z = belief.object_pose(name).position
+        assert lx < x < hx and ly < y < hy and hz < z < hz + 0.3  # imagined on the island
+    finally:
+        belief.close()
