@@ -379,6 +379,7 @@ def grasp_poses(
     object_transform_in_base: Transform | Pose,
     standard_to_tool: Sequence[Sequence[float]],
     depth: float | None = None,
+    across: float | None = None,
 ) -> list[Pose]:
     """The five tool-frame waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift] as
     poses in the transform's parent frame (normally the robot's base frame):
@@ -402,8 +403,10 @@ def grasp_poses(
 
     ``depth``: the tool frame this far (m) inside the face the grasp approaches, along the
     approach, instead of where the grasp's translation puts it (the other components of
-    the translation kept); None: the grasp's own. The overhang grasp
-    (:mod:`plans.overhang`) holds only the end that sticks out."""
+    the translation kept); None: the grasp's own. ``across``: likewise, the tool frame this
+    far (m) from the object's centre along the axis that is neither the approach nor the
+    fingers' closing axis (the standard gripper's y). The overhang grasp
+    (:mod:`plans.overhang`) holds only the end that sticks out, where it sticks out most."""
     g = grasp(object_type, grasp_name)
     if depth is not None:
         if not (math.isfinite(depth) and 0.0 <= depth <= approach_extent(object_type, grasp_name)):
@@ -414,6 +417,13 @@ def grasp_poses(
         axis = np.array(g.rotation)[:, 2]
         t = np.array(g.translation)
         t = t - (t @ axis) * axis + (depth - approach_extent(object_type, grasp_name) / 2) * axis
+        g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
+    if across is not None:
+        if not math.isfinite(across):
+            raise ValueError(f"grasp across must be a finite distance (m), got {across!r}")
+        axis = np.array(g.rotation)[:, 1]
+        t = np.array(g.translation)
+        t = t - (t @ axis) * axis + across * axis
         g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
     g_prime_t_g = np.array(standard_to_tool, dtype=float)
     if g_prime_t_g.shape != (3, 3):

@@ -61,12 +61,15 @@ from .pushing import ObjectUnpushable, counter_footprints, push_object, push_pat
 from .toppled import ObjectToppledUngraspable
 
 __all__ = [
+    "OVERHANG_ACROSS",
+    "OVERHANG_HALF_WIDTH",
     "OVERHANG_HOLD",
     "OVERHANG_KEEP",
     "OVERHANG_MARGIN",
     "OVERHANG_PUSHES",
     "OVERHANG_SLACK",
     "Overhang",
+    "OverhangFit",
     "overhang_geometry",
     "overhang_grasp_depth",
     "overhang_options",
@@ -87,6 +90,12 @@ OVERHANG_SLACK = 0.01
 #: The box's centre stays at least this far (m) inside the edge, along the push: it
 #: rests on the counter, never tips over the edge.
 OVERHANG_KEEP = 0.03
+#: Half the width (m) across the overhanging end that must stick out, either side of where
+#: the grasp holds it: the fingers and a margin.
+OVERHANG_HALF_WIDTH = 0.04
+#: How far (m) from the middle of the end, across it, the fingers may hold it (the
+#: farther, the more the box turns in the hand when lifted).
+OVERHANG_ACROSS = 0.07
 #: Pushes made before giving up.
 OVERHANG_PUSHES = 2
 #: The object's lowest point within this (m) of the surface's top: it lies on it.
@@ -102,7 +111,9 @@ class Overhang:
     end the gripper comes to, and the way to push it); ``overhang``: how far (m) that end
     sticks out over the edge now (negative: short of it); ``push``: how far to push it
     (0: it sticks out enough now); ``inset``: how far its centre is inside the edge after
-    that push; ``why``: None if this works, else why not."""
+    that push; ``across``: where across the end the fingers hold it
+    (:func:`executive.knowledge.grasp_poses`); ``depth``: how deep the tool frame goes
+    into it (:func:`overhang_grasp_depth`); ``why``: None if this works, else why not."""
 
     arm: str
     grasp: str
@@ -111,6 +122,8 @@ class Overhang:
     overhang: float
     push: float  # invariant: >= 0; 0 exactly when overhang >= needed
     inset: float
+    across: float
+    depth: float
     why: str | None
 
     @property
@@ -138,52 +151,76 @@ def _needed() -> float:
     return OVERHANG_HOLD + OVERHANG_MARGIN
 
 
+@dataclass(frozen=True)
+class OverhangFit:
+    """The geometry of an overhang grasp (see :func:`overhang_geometry`)."""
+
+    direction: tuple[float, float]  # invariant: unit; against the approach, map x/y
+    overhang: float  # how far (m) the held part of the end sticks out (negative: short)
+    push: float  # how far (m) to push it along direction; 0: it sticks out enough now
+    inset: float  # how far (m) its centre is inside the edge after that push
+    across: float  # where across the end it is held (m, see knowledge.grasp_poses)
+
+
 def overhang_geometry(
     object_type: str, grasp: str, object_pose: Pose | Transform, footprint: Footprint
-) -> tuple[tuple[float, float], float, float, float]:
+) -> OverhangFit:
     """For a lying object of ``object_type`` at ``object_pose`` (map) on a surface whose
     footprint is ``footprint`` (map x_lo, y_lo, x_hi, y_hi): the direction (unit, map x/y)
     against ``grasp``'s approach; how far (m) the end of the object on that side sticks
-    out over the footprint's edge along it (both corners of that end: the lesser;
-    negative: short of the edge); how far to push it along it so that it sticks out
-    :data:`OVERHANG_HOLD` + :data:`OVERHANG_MARGIN` + :data:`OVERHANG_SLACK` (0 when it
-    sticks out the first two already); and how far its centre is then inside the edge
+    out over the footprint's edge along it where the fingers go in, the strip
+    :data:`OVERHANG_HALF_WIDTH` either side of where across the end it is held (the
+    lesser of its two sides); where across the end to hold it: of the grasp's own
+    place, the middle and :data:`OVERHANG_ACROSS` to either side, the one that sticks
+    out farthest (a box turned on the counter sticks out more at one corner); how far to
+    push it along the direction so that it sticks out :data:`OVERHANG_HOLD` +
+    :data:`OVERHANG_MARGIN` + :data:`OVERHANG_SLACK` (0 when it sticks out the first two
+    already); and how far its centre is then inside the edge, along the direction
     (negative: beyond). Geometry only: whether the grasp fits the gripper is
     :func:`executive.knowledge.fits_overhanging`'s. A centre outside the footprint:
     :class:`ValueError`."""
     m = object_pose.matrix()
     rotation = m[:3, :3]
-    approach = rotation @ np.array(knowledge.grasp(object_type, grasp).rotation)[:, 2]
+    g = knowledge.grasp(object_type, grasp)
+    approach = rotation @ np.array(g.rotation)[:, 2]
     norm = math.hypot(approach[0], approach[1])
     if norm < 1e-6:
         raise ValueError(f"the {grasp} grasp approaches the {object_type} vertically as it lies")
     u = (-approach[0] / norm, -approach[1] / norm)
-    v = (-u[1], u[0])
     size = np.array(knowledge.object_knowledge(object_type).size)
     along = float(np.abs(rotation.T @ np.array((u[0], u[1], 0.0))) @ size)
-    across = float(np.abs(rotation.T @ np.array((v[0], v[1], 0.0))) @ size)
+    # across the end: the grasp's third axis (neither approach nor closing), in the map
+    axis = np.array(g.rotation)[:, 1]
+    b = rotation @ axis
+    width = float(np.abs(axis) @ size)
     c = (float(m[0, 3]), float(m[1, 3]))
     inside = _exit(c, u, footprint)
     if inside is None or inside < 0.0 or not _within(c, footprint):
         raise ValueError(f"the {object_type}'s centre {c} is not over the footprint {footprint}")
-    sticks_out = math.inf
-    for k in (-1.0, 1.0):
-        q = (
-            c[0] + u[0] * along / 2 + k * v[0] * across / 2,
-            c[1] + u[1] * along / 2 + k * v[1] * across / 2,
-        )
-        out = _exit(q, u, footprint)
-        sticks_out = min(sticks_out, math.inf if out is None else -out)
-    # a corner whose line misses the footprint is off it entirely: the other one decides
-    if math.isinf(sticks_out):
-        sticks_out = along / 2 - inside
+    reach = max(0.0, min(OVERHANG_ACROSS, width / 2 - OVERHANG_HALF_WIDTH))
+    own = float(np.array(g.translation) @ axis)
+    best: tuple[float, float] | None = None  # (sticks out, across)
+    for across in dict.fromkeys((own, 0.0, reach, -reach)):
+        sticks_out = math.inf
+        for k in (-1.0, 1.0):
+            f = across + k * OVERHANG_HALF_WIDTH
+            q = (c[0] + u[0] * along / 2 + b[0] * f, c[1] + u[1] * along / 2 + b[1] * f)
+            out = _exit(q, u, footprint)
+            sticks_out = min(sticks_out, math.inf if out is None else -out)
+        if math.isinf(sticks_out):  # both lines miss the footprint: off it entirely
+            sticks_out = along / 2 - inside
+        if best is None or sticks_out > best[0] + 1e-3:
+            best = (sticks_out, across)
+    assert best is not None
+    sticks_out, across = best
     push = 0.0 if sticks_out >= _needed() else _needed() + OVERHANG_SLACK - sticks_out
     after = _exit((c[0] + u[0] * push, c[1] + u[1] * push), u, footprint)
-    return (
+    return OverhangFit(
         (float(u[0]), float(u[1])),
         float(sticks_out),
         float(push),
-        (-math.inf if after is None else float(after)),
+        -math.inf if after is None else float(after),
+        float(across),
     )
 
 
@@ -228,14 +265,27 @@ def overhang_options(name: str, object_type: str) -> tuple[Overhang, ...]:
         for grasp in knowledge.grasps(object_type):
             if not knowledge.fits_overhanging(object_type, grasp, pose, opening):
                 continue
-            u, sticks_out, push, inset = overhang_geometry(object_type, grasp, pose, box)
+            fit = overhang_geometry(object_type, grasp, pose, box)
             why = None
-            if push > 0.0 and inset < OVERHANG_KEEP:  # resting there already: it stays
+            if fit.push > 0.0 and fit.inset < OVERHANG_KEEP:  # resting there already: stays
                 why = (
                     f"to stick out {_needed():.2f} m over the edge of {link} its centre "
-                    f"would be {inset:.3f} m inside it (at least {OVERHANG_KEEP:.2f} m)"
+                    f"would be {fit.inset:.3f} m inside it (at least {OVERHANG_KEEP:.2f} m)"
                 )
-            out.append(Overhang(arm, grasp, link, u, sticks_out, push, inset, why))
+            out.append(
+                Overhang(
+                    arm,
+                    grasp,
+                    link,
+                    fit.direction,
+                    fit.overhang,
+                    fit.push,
+                    fit.inset,
+                    fit.across,
+                    overhang_grasp_depth(arm),
+                    why,
+                )
+            )
     return tuple(out)
 
 
@@ -246,17 +296,17 @@ def overhang_grasp_depth(arm: str) -> float:
     return max(0.0, OVERHANG_HOLD - arm_description(arm).gripper.finger_reach)
 
 
-def overhanging_grasps(name: str | None, object_type: str, arm: str) -> tuple[str, ...]:
-    """The grasps ``arm`` can hold the lying object ``name`` by now, by the end that
-    sticks out over the surface's edge enough (:attr:`Overhang.ready`). An object the
-    belief does not know by name, or whose extent it cannot tell: none."""
+def overhanging_grasps(name: str | None, object_type: str, arm: str) -> tuple[Overhang, ...]:
+    """How ``arm`` can hold the lying object ``name`` now, by the end that sticks out
+    over the surface's edge enough (:attr:`Overhang.ready`), one per grasp. An object
+    the belief does not know by name, or whose extent it cannot tell: none."""
     if not isinstance(name, str):
         return ()
     try:
         options = overhang_options(name, object_type)
     except LookupError:
         return ()
-    return tuple(o.grasp for o in options if o.arm == arm and o.ready)
+    return tuple(o for o in options if o.arm == arm and o.ready)
 
 
 def _imagine_pushed(name: str, object_type: str, before: Pose, expected: Pose) -> None:

@@ -97,7 +97,7 @@ from ._common import (
     tool_frame_of,
 )
 from ._designators import _given_arm
-from .overhang import overhang_grasp_depth, overhanging_grasps
+from .overhang import overhanging_grasps
 from .toppled import lying_grasps
 
 _log = logging.getLogger(__name__)
@@ -439,8 +439,9 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     preferences = current_environment().preferences
     if preferences is not None:
         pairs = _checked_order(pairs, preferences.order_choices("picking-up", otype, pairs))
-    # grasp -> the tool frame's depth in the object (None: the grasp's own)
-    depths: dict[tuple[str, str], float] = {}
+    # (arm, grasp) -> the tool frame's depth and place across (plans.overhang; absent:
+    # the grasp's own)
+    depths: dict[tuple[str, str], tuple[float, float]] = {}
     if knowledge.is_lying(transform):
         # a toppled object: only the grasps from above that fit this arm's gripper
         # (plans.toppled), and the side grasps that hold an end overhanging the counter's
@@ -448,8 +449,8 @@ def _picking_up(d: Designator) -> Iterator[Any]:
         # assume it upright
         name = obj.get("name")
         for a in arms:
-            for g in overhanging_grasps(name if isinstance(name, str) else None, otype, a):
-                depths[(a, g)] = overhang_grasp_depth(a)
+            for o in overhanging_grasps(name if isinstance(name, str) else None, otype, a):
+                depths[(a, o.grasp)] = (o.depth, o.across)
         if "grasp" not in d:
             pairs = [
                 (a, g)
@@ -464,8 +465,9 @@ def _picking_up(d: Designator) -> Iterator[Any]:
         widest = hand.gripper.max_opening
         for grasp_name, frame in ((grasp, f) for f in frames):
             try:
+                depth, across = depths.get((arm, grasp_name), (None, None))
                 poses = knowledge.grasp_poses(
-                    otype, grasp_name, frame, standard_to_tool, depths.get((arm, grasp_name))
+                    otype, grasp_name, frame, standard_to_tool, depth, across
                 )
             except LookupError as exc:
                 raise DesignatorError(f"{d.short()}: {exc}", d) from None

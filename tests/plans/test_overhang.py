@@ -41,6 +41,7 @@ def test_the_side_grasps_fit_a_box_on_its_broad_face_only_across_its_thickness()
 
 def test_the_overhang_is_measured_against_the_edge_the_grasp_approaches() -> None:
     from plans.overhang import (
+        OVERHANG_ACROSS,
         OVERHANG_HOLD,
         OVERHANG_KEEP,
         OVERHANG_MARGIN,
@@ -52,21 +53,25 @@ def test_the_overhang_is_measured_against_the_edge_the_grasp_approaches() -> Non
     # the back grasp approaches along the box's +x: the gripper comes from -x, so the
     # box's -x end (0.095 m from its centre) must stick out over the x = 0 edge
     box = Pose((0.3, 0.5, 0.9), ON_ITS_BROAD_FACE)
-    u, out, push, inset = overhang_geometry(CEREAL, "back", box, COUNTER)
+    fit = overhang_geometry(CEREAL, "back", box, COUNTER)
+    u, out, push, inset = fit.direction, fit.overhang, fit.push, fit.inset
     assert u == pytest.approx((-1.0, 0.0))
     assert out == pytest.approx(-(0.3 - 0.095))  # 0.205 m short of the edge
     assert push == pytest.approx(0.205 + needed + OVERHANG_SLACK)
     assert inset == pytest.approx(0.095 - needed - OVERHANG_SLACK)
     assert inset >= OVERHANG_KEEP  # fits: its centre stays on the counter
     # the front grasp: towards the x = 1 edge
-    u, out, push, _inset = overhang_geometry(CEREAL, "front", box, COUNTER)
+    fit = overhang_geometry(CEREAL, "front", box, COUNTER)
+    u, out = fit.direction, fit.overhang
     assert u == pytest.approx((1.0, 0.0)) and out == pytest.approx(-(1.0 - 0.3 - 0.095))
     # sticking out enough already: no push
     ready = Pose((0.095 - needed - 0.005, 0.5, 0.9), ON_ITS_BROAD_FACE)
-    _u, out, push, _inset = overhang_geometry(CEREAL, "back", ready, COUNTER)
+    fit = overhang_geometry(CEREAL, "back", ready, COUNTER)
+    out, push = fit.overhang, fit.push
     assert out == pytest.approx(needed + 0.005) and push == 0.0
-    # turned 40 degrees: the far corner of the end decides, and pushing it out that far
-    # would leave its centre short of OVERHANG_KEEP inside the edge (does not fit)
+    # turned 40 degrees: one corner of the end sticks out farther; it is held there,
+    # OVERHANG_ACROSS from the middle of the end, and pushed less far than the box's
+    # middle would need
     yaw = math.radians(40)
     turned = Pose((0.3, 0.5, 0.9), ON_ITS_BROAD_FACE).to_transform()
     turned = Pose.from_xyz_yaw(0.0, 0.0, 0.0, yaw).to_transform() * turned
@@ -74,10 +79,10 @@ def test_the_overhang_is_measured_against_the_edge_the_grasp_approaches() -> Non
     m[:3, 3] = (0.3, 0.5, 0.9)
     from executive import Transform
 
-    _u, out, push, inset = overhang_geometry(
-        CEREAL, "back", Transform.from_matrix(m).to_pose(), COUNTER
-    )
-    assert push > 0.0 and inset < OVERHANG_KEEP
+    fit = overhang_geometry(CEREAL, "back", Transform.from_matrix(m).to_pose(), COUNTER)
+    middle = (0.3 - 0.095 * math.cos(yaw)) / math.cos(yaw)  # along the push, to the edge
+    assert fit.across == pytest.approx(-OVERHANG_ACROSS)
+    assert 0.0 < fit.push < middle + needed and fit.inset >= OVERHANG_KEEP
     with pytest.raises(ValueError, match="not over the footprint"):
         overhang_geometry(CEREAL, "back", Pose((1.5, 0.5, 0.9), ON_ITS_BROAD_FACE), COUNTER)
 
