@@ -21,7 +21,8 @@ reaches :data:`OVERHANG_HOLD` deep into that end
 geometry allows, the shortest push (the direction against the grasp's approach, towards
 the edge) is made with :func:`plans.pushing.push_object` (only along that direction: a
 push at an angle would turn the end away from the edge; the belief's probe, the object's
-own path checked clear, re-perceived after), then measured again; at most
+own path checked clear, re-perceived after; performed as a ``pushing-object`` action, so
+the box is the push's own object and its moving is no knock), then measured again; at most
 :data:`OVERHANG_PUSHES` pushes. Where it cannot (no kitchen surface under it, no edge
 within reach of a push that keeps its centre on the counter, every push blocked or
 unreachable) :class:`plans.toppled.ObjectToppledUngraspable` names why, logged and
@@ -52,12 +53,14 @@ from executive import (
     ObjectSpawning,
     Pose,
     Transform,
+    an,
     current_environment,
     knowledge,
+    perform,
 )
 
 from ._common import arm_description, arm_names, object_label, tally
-from .pushing import ObjectUnpushable, counter_footprints, push_object, push_path_clear
+from .pushing import ObjectUnpushable, counter_footprints, push_path_clear
 from .toppled import ObjectToppledUngraspable
 
 __all__ = [
@@ -382,8 +385,16 @@ async def push_until_overhanging(
                     continue
                 before = _world().object_pose(name)
                 try:
-                    object_designator = await push_object(
-                        object_designator, o.direction, o.push, angles=(0.0,)
+                    # performed as an action: the box is the push's own object, so
+                    # moving it is not a knock (aiocram.knocks)
+                    object_designator = await perform(
+                        an.action(
+                            type="pushing-object",
+                            object=object_designator,
+                            direction=o.direction,
+                            distance=o.push,
+                            angles=(0.0,),
+                        )
                     )
                 except ObjectUnpushable as failure:
                     why.append(f"towards the edge of {o.surface} ({o.grasp} grasp): {failure}")

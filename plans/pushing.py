@@ -55,6 +55,7 @@ from executive import (
     a,
     an,
     current_environment,
+    knowledge,
     perform,
     register_resources,
     rule,
@@ -290,6 +291,19 @@ def _room_for_the_hand(at: tuple[float, float], across: tuple[float, float], hal
     )
 
 
+def _face_behind(name: str, pose: Pose, d: tuple[float, float]) -> float:
+    """How far (m) behind the object's centre, against ``d``, its face is: half its
+    extent along ``d`` from its type's size as it lies (:mod:`executive.knowledge`);
+    of a type without knowledge, half its bounding box's."""
+    try:
+        size = np.array(knowledge.object_knowledge(_world().object_type(name)).size)
+    except LookupError:
+        (lx, ly, _lz), (hx, hy, _hz) = _world().object_aabb(name)
+        return _half_extent((lx, ly), (hx, hy), d)
+    rotation = pose.matrix()[:3, :3]
+    return float(0.5 * (np.abs(rotation.T @ np.array((d[0], d[1], 0.0))) @ size))
+
+
 def _beside(base: Pose, end: tuple[float, float], d: tuple[float, float]) -> bool:
     """Whether the base stands beside or behind the push (as seen from where the hand's
     push ends, at least :data:`PUSH_ARM_ANGLE` from its direction): then the forearm,
@@ -404,9 +418,13 @@ def _push_plans(
             why.append(f"{math.degrees(angle):+.0f} deg: {blocked}")
             continue
         back = _half_extent((lx, ly), (hx, hy), d) + PUSH_GAP
+        # the hand meets the object's face, not its bounding box's: a turned object is
+        # pushed the whole distance past where the hand first touches it
+        short = _half_extent((lx, ly), (hx, hy), d) - _face_behind(name, obj, d)
         z = lz + PUSH_HEIGHT
         start = (cx - d[0] * back, cy - d[1] * back)
-        end = (start[0] + d[0] * (along + PUSH_GAP), start[1] + d[1] * (along + PUSH_GAP))
+        travel = along + PUSH_GAP + short
+        end = (start[0] + d[0] * travel, start[1] + d[1] * travel)
         drawn = (end[0] - d[0] * PUSH_DRAW_BACK, end[1] - d[1] * PUSH_DRAW_BACK)
         line = {
             hand: tuple(
@@ -610,6 +628,12 @@ async def push_clear_of_counter(object_designator: ObjectDesignator) -> ObjectDe
             Key("direction", "(x, y) in map", "where to push it", required=True),
             Key("distance", "number (m) > 0", "how far", required=True),
             Key("arm", "'left' | 'right'", "the arm to push with", default="the first that works"),
+            Key(
+                "angles",
+                "tuple of angles (rad)",
+                "the directions tried, from the given one",
+                default="PUSH_ANGLES (0, +-30, +-50, +-65 degrees)",
+            ),
         ),
         raises=(ObjectUnpushable,),
         performs=(
@@ -620,7 +644,8 @@ async def push_clear_of_counter(object_designator: ObjectDesignator) -> ObjectDe
             "retracting",
             "detecting",
         ),
-        note="Deliberate addition: CRAM's pushing is an arm motion only.",
+        note="Deliberate addition: CRAM's pushing is an arm motion only. The pushed object "
+        "is the action's own: moving it is not a knock.",
     ),
 )
 def _pushing_object(d: Designator) -> Iterator[Any]:
@@ -633,6 +658,13 @@ def _pushing_object(d: Designator) -> Iterator[Any]:
     distance = d.get("distance")
     if isinstance(distance, bool) or not isinstance(distance, (int, float)):
         raise DesignatorInputError(f"{d.short()}: distance is a number of metres", d)
+    angles = d.get("angles", PUSH_ANGLES)
+    if not (
+        isinstance(angles, tuple)
+        and angles
+        and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in angles)
+    ):
+        raise DesignatorInputError(f"{d.short()}: angles is a non-empty tuple of radians", d)
     yield (
         push_object,
         {
@@ -640,6 +672,7 @@ def _pushing_object(d: Designator) -> Iterator[Any]:
             "direction": (float(direction[0]), float(direction[1])),
             "distance": float(distance),
             "arm": d.get("arm"),
+            "angles": tuple(float(x) for x in angles),
         },
     )
 
