@@ -69,6 +69,7 @@ __all__ = [
     "OVERHANG_HOLD",
     "OVERHANG_KEEP",
     "OVERHANG_MARGIN",
+    "OVERHANG_MIN_PUSH",
     "OVERHANG_PUSHES",
     "OVERHANG_SLACK",
     "Overhang",
@@ -87,12 +88,16 @@ OVERHANG_HOLD = 0.03
 #: How far (m) beyond what the fingers hold the end sticks out: the lower fingertip clears
 #: the counter's edge by this.
 OVERHANG_MARGIN = 0.02
-#: A push aims this much (m) beyond the overhang needed: a push that falls a little short
-#: still leaves enough.
-OVERHANG_SLACK = 0.01
+#: A push aims this much (m) beyond the overhang needed: a push that falls a little short,
+#: or a box re-perceived a little off, still leaves enough.
+OVERHANG_SLACK = 0.015
+#: The shortest push (m): a shorter one moves the box by little more than the hand's give
+#: (measured: pushes of 0.02 and 0.03 m moved it 0.01 m each).
+OVERHANG_MIN_PUSH = 0.04
 #: The box's centre stays at least this far (m) inside the edge, along the push: it
-#: rests on the counter, never tips over the edge.
-OVERHANG_KEEP = 0.03
+#: rests on the counter, never tips over the edge (measured: a 0.245 m push overshot by
+#: 0.008 m).
+OVERHANG_KEEP = 0.02
 #: Half the width (m) across the overhanging end that must stick out, either side of where
 #: the grasp holds it: the fingers and a margin.
 OVERHANG_HALF_WIDTH = 0.04
@@ -177,8 +182,9 @@ def overhang_geometry(
     place, the middle and :data:`OVERHANG_ACROSS` to either side, the one that sticks
     out farthest (a box turned on the counter sticks out more at one corner); how far to
     push it along the direction so that it sticks out :data:`OVERHANG_HOLD` +
-    :data:`OVERHANG_MARGIN` + :data:`OVERHANG_SLACK` (0 when it sticks out the first two
-    already); and how far its centre is then inside the edge, along the direction
+    :data:`OVERHANG_MARGIN` + :data:`OVERHANG_SLACK`, at least :data:`OVERHANG_MIN_PUSH`
+    (0 when it sticks out the first two already); and how far its centre is then inside
+    the edge, along the direction
     (negative: beyond). Geometry only: whether the grasp fits the gripper is
     :func:`executive.knowledge.fits_overhanging`'s. A centre outside the footprint:
     :class:`ValueError`."""
@@ -216,7 +222,11 @@ def overhang_geometry(
             best = (sticks_out, across)
     assert best is not None
     sticks_out, across = best
-    push = 0.0 if sticks_out >= _needed() else _needed() + OVERHANG_SLACK - sticks_out
+    push = (
+        0.0
+        if sticks_out >= _needed()
+        else max(OVERHANG_MIN_PUSH, _needed() + OVERHANG_SLACK - sticks_out)
+    )
     after = _exit((c[0] + u[0] * push, c[1] + u[1] * push), u, footprint)
     return OverhangFit(
         (float(u[0]), float(u[1])),
