@@ -477,12 +477,14 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
             "picking-up",
             "going",
             "positioning-arm",
+            "pushing-object",
         ),
         note="Designator errors become ObjectUnfetchable. An object believed on the floor "
         "(below 0.3 m) is fetched from base poses around it; out of reach there: "
         "ObjectUnreachableOnFloor (logged, counted). An object lying toppled with no grasp "
-        "from above that fits the gripper: ObjectToppledUngraspable (logged, counted), "
-        "before anything moves.",
+        "from above that fits the gripper is pushed over its counter's edge and grasped by "
+        "the end that sticks out (plans.overhang, performs pushing-object); where no push "
+        "can do that: ObjectToppledUngraspable (logged, counted), before anything moves.",
     ),
 )
 def _fetching(d: Designator) -> Iterator[Any]:
