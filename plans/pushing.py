@@ -19,7 +19,9 @@ around there if it is not seen.
 (round 1's losses: no IK at the grasp height, the arm hits the cabinet, hidden from most
 floor poses): pushed away from the counter, in the direction the belief's kitchen
 geometry gives (the surfaces' footprints, :func:`nearest_counter`), far enough
-(:data:`PUSH_CLEAR`) to be picked, then fetched as usual.
+(:data:`PUSH_CLEAR`) to be picked, then fetched as usual. :mod:`plans.overhang` pushes a
+box lying flat on a counter over its edge (the hand comes down on the counter there, the
+base stands in front of it: :data:`PUSH_COUNTER_BASE_DISTANCES`).
 
 Deliberate addition (beyond CRAM): CRAM's ``pushing`` is an arm motion for closing
 drawers; no CRAM plan pushes an object to make it graspable, and its fetch gave up on an

@@ -13,10 +13,12 @@ it lies first.
 
 A box lying on its broad face (the cereal box on its 0.19 x 0.29 m face) is wider than
 the gripper on every side that faces up: no grasp fits, and from the side one finger
-would have to go under it, into the counter. ``fetch`` then fails at once with
-:class:`ObjectToppledUngraspable`, naming the face it lies on and the widths, logged and
-counted (``toppled-ungraspable``), before anything moves: CRAM's plans (and this
-project's before) spent every relocation and pick check on it.
+would have to go under it, into the counter. ``fetch`` then pushes it over the edge of
+the counter it lies on and grasps the end that sticks out from the side
+(:mod:`plans.overhang`); where no push can do that, it fails with
+:class:`ObjectToppledUngraspable`, naming the face it lies on, the widths and why no push
+works, logged and counted (``toppled-ungraspable``), before anything moves: CRAM's plans
+(and this project's before) spent every relocation and pick check on it.
 
 Deliberate difference from CRAM: its grasps assume an upright object, so a toppled one
 was probed (and failed) like an upright one; it never picked an object the way it lies,

@@ -178,3 +178,19 @@ def test_imagined_the_push_leaves_the_box_overhanging_and_the_transport_goes_on(
         assert lx < x < hx and ly < y < hy and hz < z < hz + 0.3  # imagined on the island
     finally:
         belief.close()
+
+
+def test_bad_overhang_inputs_are_typed_errors_naming_what_to_fix() -> None:
+    from executive import GripperDescription
+
+    with pytest.raises(ValueError, match="finger_reach must be a finite distance >= 0"):
+        GripperDescription(("f",), 0.1, 0.05, 0.0, 10.0, finger_reach=-0.01)
+    lying = Pose((0.0, 0.0, 0.0), ON_ITS_BROAD_FACE)
+    identity = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    with pytest.raises(ValueError, match=r"grasp depth must be 0 to 0\.190 m"):
+        knowledge.grasp_poses(CEREAL, "back", lying, identity, depth=0.3)
+    with pytest.raises(ValueError, match="grasp across must be a finite distance"):
+        knowledge.grasp_poses(CEREAL, "back", lying, identity, across=math.nan)
+    # the depth and the place across move the tool frame in the object frame only so
+    grasp = knowledge.grasp_poses(CEREAL, "back", Pose(), identity, depth=0.01, across=-0.07)[2]
+    assert grasp.position == pytest.approx((-0.095 + 0.01, 0.0, -0.07))
