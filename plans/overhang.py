@@ -108,6 +108,10 @@ OVERHANG_ACROSS = 0.07
 OVERHANG_PUSHES = 2
 #: The object's lowest point within this (m) of the surface's top: it lies on it.
 ON_SURFACE = 0.05
+#: A box whose centre a push left on the counter's edge, or this far (m) beyond it, but
+#: that rests on the counter still (its lowest point at the top: measured, one pushed
+#: 0.04 m farther than planned balanced there) is held by its overhanging end as well.
+ON_EDGE = 0.02
 
 Footprint = tuple[float, float, float, float]
 
@@ -186,8 +190,8 @@ def overhang_geometry(
     (0 when it sticks out the first two already); and how far its centre is then inside
     the edge, along the direction
     (negative: beyond). Geometry only: whether the grasp fits the gripper is
-    :func:`executive.knowledge.fits_overhanging`'s. A centre outside the footprint:
-    :class:`ValueError`."""
+    :func:`executive.knowledge.fits_overhanging`'s. A centre outside the footprint by
+    more than :data:`ON_EDGE`: :class:`ValueError`."""
     m = object_pose.matrix()
     rotation = m[:3, :3]
     g = knowledge.grasp(object_type, grasp)
@@ -204,7 +208,7 @@ def overhang_geometry(
     width = float(np.abs(axis) @ size)
     c = (float(m[0, 3]), float(m[1, 3]))
     inside = _exit(c, u, footprint)
-    if inside is None or inside < 0.0 or not _within(c, footprint):
+    if inside is None or inside < -ON_EDGE or not _within(c, _grown(footprint, ON_EDGE)):
         raise ValueError(f"the {object_type}'s centre {c} is not over the footprint {footprint}")
     reach = max(0.0, min(OVERHANG_ACROSS, width / 2 - OVERHANG_HALF_WIDTH))
     own = float(np.array(g.translation) @ axis)
@@ -237,6 +241,10 @@ def overhang_geometry(
     )
 
 
+def _grown(box: Footprint, by: float) -> Footprint:
+    return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
+
+
 def _within(p: Sequence[float], box: Footprint) -> bool:
     return box[0] <= p[0] <= box[2] and box[1] <= p[1] <= box[3]
 
@@ -247,14 +255,15 @@ def _world() -> Any:
 
 def _surface_under(name: str) -> tuple[str, Footprint] | None:
     """The kitchen surface (the belief's: :func:`plans.pushing.counter_footprints`) the
-    object ``name`` lies on: its centre over the footprint, its lowest point within
-    :data:`ON_SURFACE` of the surface's top. None: on none of them."""
+    object ``name`` lies on: its centre over the footprint (or beyond its edge by no more
+    than :data:`ON_EDGE`), its lowest point within :data:`ON_SURFACE` of the surface's
+    top. None: on none of them."""
     world = _world()
     x, y, _z = world.object_pose(name).position
     (_lx, _ly, lz), _hi = world.object_aabb(name)
     for link, box in counter_footprints():
         top = float(world.link_aabb(link)[1][2])
-        if _within((x, y), box) and abs(lz - top) <= ON_SURFACE:
+        if _within((x, y), _grown(box, ON_EDGE)) and abs(lz - top) <= ON_SURFACE:
             return link, box
     return None
 
@@ -300,6 +309,16 @@ def overhang_options(name: str, object_type: str) -> tuple[Overhang, ...]:
                 )
             )
     return tuple(out)
+
+
+def _no_options(name: str) -> str:
+    """Why :func:`overhang_options` has none for ``name``, for the failure's message."""
+    world = _world()
+    x, y, _z = world.object_pose(name).position
+    (_lx, _ly, lz), _hi = world.object_aabb(name)
+    if _surface_under(name) is None:
+        return f"it lies on no kitchen surface (at {x:.2f}, {y:.2f}, its lowest point {lz:.2f} m)"
+    return "no grasp of its type holds it from the side as it lies (tilted)"
 
 
 def overhang_grasp_depth(arm: str) -> float:
@@ -376,7 +395,7 @@ async def push_until_overhanging(
             if any(o.ready for o in options):
                 return object_designator
             if not options:
-                why.append("it lies on no kitchen surface, or no grasp holds it from the side")
+                why.append(_no_options(name))
                 break
             why = [f"{o.arm} {o.grasp}: {o.why}" for o in options if o.why is not None]
             if attempt == OVERHANG_PUSHES:
