@@ -19,7 +19,9 @@ checkpoint (each with its motion type and arms) and the event of this checkpoint
 
 - If some cause belongs to the object's **own** pick-up or placing (a motion inside a
   ``picking-up`` or ``placing`` action whose object is this object, or the release or
-  grasp event of this object), the move is not a knock: the reference is taken again.
+  grasp event of this object), or to a push of it (a ``pushing-object`` action whose
+  object it is: the hand moves it on purpose), the move is not a knock: the reference
+  is taken again.
   A placing's retract is inside the placing: an object placed unstably that falls while
   its own placing ends is **not** knocked (it is a placing failure, measured as toppled or
   not delivered by :mod:`aiocram.truth`); once its placing is over, it is an object at
@@ -107,8 +109,9 @@ PUSH_ORDER = (
     "object-detached",
     "object-attached",
 )
-#: Actions an object's own motions are inside (its pick-up, its placing).
-OWN_ACTIONS = frozenset({"picking-up", "placing"})
+#: Actions an object's own motions are inside (its pick-up, its placing, a push of it:
+#: ``pushing-object`` moves it on purpose, issue 26).
+OWN_ACTIONS = frozenset({"picking-up", "placing", "pushing-object"})
 
 
 @dataclass(frozen=True)

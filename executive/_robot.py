@@ -230,13 +230,25 @@ class GripperDescription:
     ``max_opening``: the widest opening (m) between the finger pads (``setting-gripper``
     positions are checked against it); ``effort``: the default gripping effort (the URDF
     unit of the finger joints). The joint value for an opening is interpolated linearly
-    between closed (0 m) and open (``max_opening``)."""
+    between closed (0 m) and open (``max_opening``). ``finger_reach``: how far (m) the
+    fingertips reach beyond the tool frame along the approach (0: the tool frame is at the
+    tips); a grasp whose tool frame is ``d`` deep in an object holds ``d + finger_reach``
+    of it between the fingers (the overhang grasp of :mod:`plans.overhang` sizes its depth
+    by it). Negative or not finite: :class:`ValueError`."""
 
     joints: tuple[str, ...]
     max_opening: float
     open_position: float
     closed_position: float
     effort: float
+    finger_reach: float = 0.0  # invariant: finite, >= 0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.finger_reach) and self.finger_reach >= 0.0):
+            raise ValueError(
+                "GripperDescription.finger_reach must be a finite distance >= 0 (m): how "
+                f"far the fingertips reach beyond the tool frame; got {self.finger_reach!r}"
+            )
 
     def joint_position(self, opening: float) -> float:
         """The finger joints' value for ``opening`` metres (0..``max_opening``);

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 
 import numpy as np
@@ -30,14 +30,17 @@ __all__ = [
     "LIFT_OFFSET",
     "LYING_APPROACH_CONE",
     "LYING_TILT",
+    "OVERHANG_APPROACH_CONE",
     "ROTATIONALLY_SYMMETRIC",
     "STANDARD_ROTATIONS",
     "TOPPLED_TILT",
     "Grasp",
     "ObjectKnowledge",
     "approach_down",
+    "approach_extent",
     "closing_width",
     "fits_lying",
+    "fits_overhanging",
     "grasp",
     "grasp_poses",
     "grasps",
@@ -337,11 +340,46 @@ def fits_lying(
     )
 
 
+#: A lying object overhanging its support's edge is grasped from the side: a grasp whose
+#: approach is within this angle (rad) of the horizontal and whose fingers close within
+#: it of the vertical, as it lies (see :func:`fits_overhanging`).
+OVERHANG_APPROACH_CONE = math.pi / 9
+
+
+def approach_extent(object_type: str, grasp_name: str) -> float:
+    """The type's extent (m) along the grasp's approach (the standard gripper's z, the
+    third column of the grasp's rotation, in the object frame)."""
+    info = object_knowledge(object_type)
+    axis = np.array(info.grasp(grasp_name).rotation)[:, 2]
+    return float(np.abs(axis) @ np.array(info.size))
+
+
+def fits_overhanging(
+    object_type: str, grasp_name: str, object_transform: Transform | Pose, opening: float
+) -> bool:
+    """Whether this grasp could hold a lying object by an end that sticks out over the
+    edge of what it lies on, with a gripper that opens ``opening`` metres: the approach
+    horizontal and the fingers closing vertically (each within
+    :data:`OVERHANG_APPROACH_CONE`), across no more than ``opening``. Whether the end
+    does stick out far enough is the plan's to measure (:mod:`plans.overhang`).
+    Deliberate addition: CRAM's grasps assume an upright object."""
+    g = grasp(object_type, grasp_name)
+    rotation = object_transform.matrix()[:3, :3] @ np.array(g.rotation)
+    closing, approach = rotation[:, 0], rotation[:, 2]
+    return bool(
+        abs(approach[2]) <= math.sin(OVERHANG_APPROACH_CONE)
+        and abs(closing[2]) >= math.cos(OVERHANG_APPROACH_CONE)
+        and closing_width(object_type, grasp_name) <= opening
+    )
+
+
 def grasp_poses(
     object_type: str,
     grasp_name: str,
     object_transform_in_base: Transform | Pose,
     standard_to_tool: Sequence[Sequence[float]],
+    depth: float | None = None,
+    across: float | None = None,
 ) -> list[Pose]:
     """The five tool-frame waypoints [pregrasp, 2nd-pregrasp, grasp, lift, 2nd-lift] as
     poses in the transform's parent frame (normally the robot's base frame):
@@ -361,8 +399,32 @@ def grasp_poses(
     their sum. Deliberate difference:
     CRAM's grasps assume an upright object, so a toppled one could not be picked up; the
     placing (:mod:`plans.pick_place`) then puts the object down upright, holding it by the
-    same grasp, now horizontal."""
+    same grasp, now horizontal.
+
+    ``depth``: the tool frame this far (m) inside the face the grasp approaches, along the
+    approach, instead of where the grasp's translation puts it (the other components of
+    the translation kept); None: the grasp's own. ``across``: likewise, the tool frame this
+    far (m) from the object's centre along the axis that is neither the approach nor the
+    fingers' closing axis (the standard gripper's y). The overhang grasp
+    (:mod:`plans.overhang`) holds only the end that sticks out, where it sticks out most."""
     g = grasp(object_type, grasp_name)
+    if depth is not None:
+        if not (math.isfinite(depth) and 0.0 <= depth <= approach_extent(object_type, grasp_name)):
+            raise ValueError(
+                f"grasp depth must be 0 to {approach_extent(object_type, grasp_name):.3f} m "
+                f"(the {object_type}'s extent along the {grasp_name} approach), got {depth!r}"
+            )
+        axis = np.array(g.rotation)[:, 2]
+        t = np.array(g.translation)
+        t = t - (t @ axis) * axis + (depth - approach_extent(object_type, grasp_name) / 2) * axis
+        g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
+    if across is not None:
+        if not math.isfinite(across):
+            raise ValueError(f"grasp across must be a finite distance (m), got {across!r}")
+        axis = np.array(g.rotation)[:, 1]
+        t = np.array(g.translation)
+        t = t - (t @ axis) * axis + across * axis
+        g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
     g_prime_t_g = np.array(standard_to_tool, dtype=float)
     if g_prime_t_g.shape != (3, 3):
         raise ValueError(

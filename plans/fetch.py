@@ -62,6 +62,7 @@ from executive import (
 
 from ._common import (
     CountedRetries,
+    arm_names,
     object_label,
     tally,
     the_base,
@@ -71,9 +72,14 @@ from ._common import (
 from ._designators import _check_places, _given_arm, _object, default_of, learned_base, robot_name
 from .checks import check_picking_up_collisions
 from .navigation import back_off, park_clear
+from .overhang import overhanging_grasps, push_until_overhanging
 from .pushing import ObjectUnpushable, push_clear_of_counter
 from .search import arms_out_of_view, search_for_object
-from .toppled import ObjectToppledUngraspable, check_graspable_as_it_lies
+from .toppled import (
+    ObjectToppledUngraspable,
+    check_graspable_as_it_lies,
+    ungraspable_as_it_lies,
+)
 
 __all__ = [
     "FETCH_REGRASPS",
@@ -150,8 +156,9 @@ async def fetch(
 
     async def body() -> ObjectDesignator:
         nonlocal object_designator
-        # as the search perceived it: toppled with no grasp that fits, before moving
-        _check_lying(object_designator)
+        # as the search perceived it: toppled with no grasp that fits, pushed over the
+        # counter's edge first (or the typed failure, before moving)
+        object_designator = await _graspable_as_it_lies(object_designator)
         name = object_designator.current().get("name")
         object_pose = a.location(of_item_object=name).reference()
         on_floor = object_pose.position[2] < floor_height()
@@ -294,7 +301,9 @@ def floor_base_poses(object_pose: Pose) -> tuple[Pose, ...]:
 
 
 def _check_lying(perceived: Any) -> None:
-    """A perceived object that lies toppled with no grasp that fits the gripper:
+    """A perceived object that lies toppled with no grasp that fits the gripper, neither
+    from above nor by an end overhanging the counter's edge
+    (:func:`plans.overhang.overhanging_grasps`):
     :class:`plans.toppled.ObjectToppledUngraspable` (logged, counted) before anything
     moves. Perceived without a type or a pose in the base frame: nothing is checked."""
     obj = perceived.current() if isinstance(perceived, ObjectDesignator) else perceived
@@ -306,7 +315,33 @@ def _check_lying(perceived: Any) -> None:
         knowledge.object_knowledge(otype)
     except LookupError:
         return  # the picking-up grounding names the known types
+    name = obj.get("name")
+    if knowledge.is_lying(transform) and any(
+        overhanging_grasps(name, otype, arm) for arm in arm_names()
+    ):
+        return
     check_graspable_as_it_lies(obj, otype, transform)
+
+
+async def _graspable_as_it_lies(object_designator: ObjectDesignator) -> ObjectDesignator:
+    """The perceived object, graspable as it lies: one toppled with no grasp that fits
+    from above (:func:`plans.toppled.ungraspable_as_it_lies`) is pushed over the edge of
+    the counter it lies on until an end sticks out for the overhang grasp
+    (:func:`plans.overhang.push_until_overhanging`, re-perceived); where that cannot
+    work, :class:`plans.toppled.ObjectToppledUngraspable` naming both whys (logged,
+    counted), nothing moved."""
+    obj = object_designator.current()
+    transform, otype = obj.get("transform"), obj.get("type")
+    if not isinstance(transform, Transform) or not isinstance(otype, str):
+        return object_designator
+    try:
+        why = ungraspable_as_it_lies(otype, transform)
+    except LookupError:
+        return object_designator  # the picking-up grounding names the known types
+    if why is None:
+        return object_designator
+    log.info("%s: %s; pushing it over the counter's edge", object_label(obj), why)
+    return await push_until_overhanging(object_designator, why)
 
 
 async def _pushed_clear(object_designator: ObjectDesignator) -> ObjectDesignator:
@@ -442,12 +477,14 @@ def _arm_and_grasp(pick_up_action: Designator | None) -> tuple[Any, Any]:
             "picking-up",
             "going",
             "positioning-arm",
+            "pushing-object",
         ),
         note="Designator errors become ObjectUnfetchable. An object believed on the floor "
         "(below 0.3 m) is fetched from base poses around it; out of reach there: "
         "ObjectUnreachableOnFloor (logged, counted). An object lying toppled with no grasp "
-        "from above that fits the gripper: ObjectToppledUngraspable (logged, counted), "
-        "before anything moves.",
+        "from above that fits the gripper is pushed over its counter's edge and grasped by "
+        "the end that sticks out (plans.overhang, performs pushing-object); where no push "
+        "can do that: ObjectToppledUngraspable (logged, counted), before anything moves.",
     ),
 )
 def _fetching(d: Designator) -> Iterator[Any]:

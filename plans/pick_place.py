@@ -97,6 +97,7 @@ from ._common import (
     tool_frame_of,
 )
 from ._designators import _given_arm
+from .overhang import overhanging_grasps
 from .toppled import lying_grasps
 
 _log = logging.getLogger(__name__)
@@ -438,10 +439,24 @@ def _picking_up(d: Designator) -> Iterator[Any]:
     preferences = current_environment().preferences
     if preferences is not None:
         pairs = _checked_order(pairs, preferences.order_choices("picking-up", otype, pairs))
-    if "grasp" not in d and knowledge.is_lying(transform):
+    # (arm, grasp) -> the tool frame's depth and place across (plans.overhang; absent:
+    # the grasp's own)
+    depths: dict[tuple[str, str], tuple[float, float]] = {}
+    if knowledge.is_lying(transform):
         # a toppled object: only the grasps from above that fit this arm's gripper
-        # (plans.toppled; deliberate addition, CRAM's grasps assume it upright)
-        pairs = [(a, g) for a, g in pairs if g in lying_grasps(otype, transform, (str(g),), a)]
+        # (plans.toppled), and the side grasps that hold an end overhanging the counter's
+        # edge (plans.overhang) at their depth; deliberate addition, CRAM's grasps
+        # assume it upright
+        name = obj.get("name")
+        for a in arms:
+            for o in overhanging_grasps(name if isinstance(name, str) else None, otype, a):
+                depths[(a, o.grasp)] = (o.depth, o.across)
+        if "grasp" not in d:
+            pairs = [
+                (a, g)
+                for a, g in pairs
+                if g in lying_grasps(otype, transform, (str(g),), a) or (a, str(g)) in depths
+            ]
     for arm, grasp in pairs:
         assert grasp is not None
         hand = arm_description(arm)
@@ -450,7 +465,10 @@ def _picking_up(d: Designator) -> Iterator[Any]:
         widest = hand.gripper.max_opening
         for grasp_name, frame in ((grasp, f) for f in frames):
             try:
-                poses = knowledge.grasp_poses(otype, grasp_name, frame, standard_to_tool)
+                depth, across = depths.get((arm, grasp_name), (None, None))
+                poses = knowledge.grasp_poses(
+                    otype, grasp_name, frame, standard_to_tool, depth, across
+                )
             except LookupError as exc:
                 raise DesignatorError(f"{d.short()}: {exc}", d) from None
             for reach in _approaches(poses[:2]):

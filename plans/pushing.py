@@ -19,7 +19,9 @@ around there if it is not seen.
 (round 1's losses: no IK at the grasp height, the arm hits the cabinet, hidden from most
 floor poses): pushed away from the counter, in the direction the belief's kitchen
 geometry gives (the surfaces' footprints, :func:`nearest_counter`), far enough
-(:data:`PUSH_CLEAR`) to be picked, then fetched as usual.
+(:data:`PUSH_CLEAR`) to be picked, then fetched as usual. :mod:`plans.overhang` pushes a
+box lying flat on a counter over its edge (the hand comes down on the counter there, the
+base stands in front of it: :data:`PUSH_COUNTER_BASE_DISTANCES`).
 
 Deliberate addition (beyond CRAM): CRAM's ``pushing`` is an arm motion for closing
 drawers; no CRAM plan pushes an object to make it graspable, and its fetch gave up on an
@@ -55,6 +57,7 @@ from executive import (
     a,
     an,
     current_environment,
+    knowledge,
     perform,
     register_resources,
     rule,
@@ -126,6 +129,15 @@ PUSH_ARM_ANGLE = math.radians(80)
 PUSH_BASE_DISTANCES = (0.45, 0.4)
 PUSH_BASE_SIDES = (0.2, -0.2, 0.3, -0.3)
 PUSH_BASE_YAWS = 16
+#: For a push on a counter the base stands in front of the counter, farther from the
+#: hand (it comes down on the counter, behind the object): this far from the push's
+#: start (m), turned so that the start is at these bearings (rad) from its heading (to
+#: the side: the arm on that side reaches farther across the counter).
+PUSH_COUNTER_BASE_DISTANCES = (0.55, 0.65, 0.75)
+PUSH_COUNTER_BASE_BEARINGS = tuple(math.radians(a) for a in (0.0, 45.0, -45.0, 80.0, -80.0))
+#: An object no taller than this (m) may be pushed towards the robot: it passes under the
+#: forearm, which rises from a wrist held above the hand pointing down (:func:`_beside`).
+PUSH_LOW_OBJECT = 0.1
 
 
 class ObjectUnpushable(HighLevelFailure):
@@ -281,22 +293,46 @@ def _room_for_the_hand(at: tuple[float, float], across: tuple[float, float], hal
     )
 
 
+def _face_behind(name: str, pose: Pose, d: tuple[float, float]) -> float:
+    """How far (m) behind the object's centre, against ``d``, its face is: half its
+    extent along ``d`` from its type's size as it lies (:mod:`executive.knowledge`);
+    of a type without knowledge, half its bounding box's."""
+    try:
+        size = np.array(knowledge.object_knowledge(_world().object_type(name)).size)
+    except LookupError:
+        (lx, ly, _lz), (hx, hy, _hz) = _world().object_aabb(name)
+        return _half_extent((lx, ly), (hx, hy), d)
+    rotation = pose.matrix()[:3, :3]
+    return float(0.5 * (np.abs(rotation.T @ np.array((d[0], d[1], 0.0))) @ size))
+
+
 def _beside(base: Pose, end: tuple[float, float], d: tuple[float, float]) -> bool:
     """Whether the base stands beside or behind the push (as seen from where the hand's
     push ends, at least :data:`PUSH_ARM_ANGLE` from its direction): then the forearm,
     which slopes from the hand towards the robot, is not above the object's path.
     Measured: pushing a milk carton towards the robot, its top caught under the forearm
-    and it was flung 1.3 m across the kitchen."""
+    and it was flung 1.3 m across the kitchen. Required for objects taller than
+    :data:`PUSH_LOW_OBJECT` only."""
     vx, vy = base.position[0] - end[0], base.position[1] - end[1]
     norm = math.hypot(vx, vy)
     return norm > 1e-9 and (vx * d[0] + vy * d[1]) / norm <= math.cos(PUSH_ARM_ANGLE)
 
 
-def _base_poses(mid: tuple[float, float]) -> Iterator[Pose]:
-    """Base poses around the push's start (see :data:`PUSH_BASE_DISTANCES`), the
-    nearest to the robot first."""
+def _base_poses(mid: tuple[float, float], on_floor: bool = True) -> Iterator[Pose]:
+    """Base poses around the push's start (see :data:`PUSH_BASE_DISTANCES`; on a counter
+    :data:`PUSH_COUNTER_BASE_DISTANCES`), the nearest to the robot first."""
     robot = _world().robot_pose().position
     poses = []
+    if not on_floor:
+        for k in range(PUSH_BASE_YAWS):
+            around = 2 * math.pi * k / PUSH_BASE_YAWS  # from the start to the base
+            for d in PUSH_COUNTER_BASE_DISTANCES:
+                x, y = mid[0] + d * math.cos(around), mid[1] + d * math.sin(around)
+                for bearing in PUSH_COUNTER_BASE_BEARINGS:
+                    poses.append(Pose.from_xyz_yaw(x, y, 0.0, around + math.pi - bearing))
+        poses.sort(key=lambda p: math.dist(p.position[:2], robot[:2]))
+        yield from poses
+        return
     for k in range(PUSH_BASE_YAWS):
         yaw = 2 * math.pi * k / PUSH_BASE_YAWS
         c, s = math.cos(yaw), math.sin(yaw)
@@ -309,11 +345,16 @@ def _base_poses(mid: tuple[float, float]) -> Iterator[Pose]:
 
 
 def push_plans(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None = None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> Iterator[PushPlan]:
     """The pushes the belief says work, best first (see :func:`plan_push`); the first is
     found before anything is yielded, so a caller that takes none still gets
-    :class:`ObjectUnpushable` from its first ``next``."""
+    :class:`ObjectUnpushable` from its first ``next``. ``angles``: the directions tried,
+    as angles (rad) from ``direction`` (:data:`PUSH_ANGLES`; ``(0.0,)``: only along it)."""
     norm = math.hypot(*direction)
     if not math.isfinite(norm) or norm < 1e-9:
         raise DesignatorInputError(
@@ -321,11 +362,22 @@ def push_plans(
         )
     if not (isinstance(distance, (int, float)) and math.isfinite(distance) and distance > 0):
         raise DesignatorInputError(f"push distance must be > 0 (m), got {distance!r}")
-    return _push_plans(name, direction, distance, arm)
+    if not angles or not all(
+        isinstance(x, (int, float)) and abs(x) < math.pi / 2 - 0.1 for x in angles
+    ):
+        raise DesignatorInputError(
+            f"push angles must be a non-empty sequence of angles (rad) within 80 degrees of "
+            f"the direction, got {angles!r}"
+        )
+    return _push_plans(name, direction, distance, arm, tuple(float(x) for x in angles))
 
 
 def plan_push(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None = None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> PushPlan:
     """Find a push of the object ``name`` (known to the belief by name) ``distance`` m
     along ``direction`` (map x/y; normalised here) or within :data:`PUSH_ANGLES` of it
@@ -337,22 +389,30 @@ def plan_push(
     per direction (none where the hand would come down on a counter);
     :class:`executive.DesignatorInputError` for a zero direction or a distance that is
     not positive."""
-    return next(push_plans(name, direction, distance, arm))
+    return next(push_plans(name, direction, distance, arm, angles))
 
 
 def _push_plans(
-    name: str, direction: tuple[float, float], distance: float, arm: str | None
+    name: str,
+    direction: tuple[float, float],
+    distance: float,
+    arm: str | None,
+    angles: tuple[float, ...],
 ) -> Iterator[PushPlan]:
     norm = math.hypot(*direction)
     wanted = (direction[0] / norm, direction[1] / norm)
     world = _world()
     arms = (arm,) if arm is not None else arm_names()
     obj = world.object_pose(name)
-    (lx, ly, lz), (hx, hy, _hz) = world.object_aabb(name)
+    (lx, ly, lz), (hx, hy, hz) = world.object_aabb(name)
     cx, cy = obj.position[0], obj.position[1]
+    # on a counter the hand comes down on it, beside the object; on the floor, outside
+    # every counter's footprint
+    on_floor = lz < current_environment().kitchen.floor_height
+    low = hz - lz <= PUSH_LOW_OBJECT
     found = 0
     why: list[str] = []
-    for angle in PUSH_ANGLES:
+    for angle in angles:
         d = _rotated(wanted, angle)
         along = distance / math.cos(angle)
         blocked = push_path_clear(name, d, along)
@@ -360,9 +420,13 @@ def _push_plans(
             why.append(f"{math.degrees(angle):+.0f} deg: {blocked}")
             continue
         back = _half_extent((lx, ly), (hx, hy), d) + PUSH_GAP
+        # the hand meets the object's face, not its bounding box's: a turned object is
+        # pushed the whole distance past where the hand first touches it
+        short = _half_extent((lx, ly), (hx, hy), d) - _face_behind(name, obj, d)
         z = lz + PUSH_HEIGHT
         start = (cx - d[0] * back, cy - d[1] * back)
-        end = (start[0] + d[0] * (along + PUSH_GAP), start[1] + d[1] * (along + PUSH_GAP))
+        travel = along + PUSH_GAP + short
+        end = (start[0] + d[0] * travel, start[1] + d[1] * travel)
         drawn = (end[0] - d[0] * PUSH_DRAW_BACK, end[1] - d[1] * PUSH_DRAW_BACK)
         line = {
             hand: tuple(
@@ -380,14 +444,14 @@ def _push_plans(
         across = _half_extent((lx, ly), (hx, hy), (-d[1], d[0])) * 2
         opening = {hand: _push_opening(across, hand) for hand in arms}
         tips = max(opening.values()) / 2 + PUSH_HAND_CLEARANCE
-        if not _room_for_the_hand(start, (-d[1], d[0]), tips):
+        if on_floor and not _room_for_the_hand(start, (-d[1], d[0]), tips):
             why.append(f"{math.degrees(angle):+.0f} deg: no room for the hand behind it")
             continue
         probes = 0
-        for base in _base_poses(start):
+        for base in _base_poses(start, on_floor):
             if probes >= PUSH_PROBES:
                 break
-            if not _beside(base, end, d):
+            if not low and not _beside(base, end, d):
                 continue
             if not world.probe_base_pose(base).ok:
                 continue
@@ -416,9 +480,11 @@ async def push_object(
     direction: tuple[float, float],
     distance: float,
     arm: str | None = None,
+    angles: Sequence[float] = PUSH_ANGLES,
 ) -> ObjectDesignator:
     """Push a perceived object ``distance`` m along ``direction`` (map) with one hand
-    (:func:`plan_push` chooses the direction within :data:`PUSH_ANGLES`, the arm and the
+    (:func:`plan_push` chooses the direction within ``angles`` of it (default
+    :data:`PUSH_ANGLES`), the arm and the
     base pose in the belief first; :class:`ObjectUnpushable` before anything moves when
     none works): drive there, close the gripper, reach above the start (a free motion,
     planned), then the contact motion (``pushing``: down beside the object, along the
@@ -430,7 +496,7 @@ async def push_object(
         raise DesignatorInputError(
             f"push-object needs an object designator with a name, got {object_designator!r}"
         )
-    plans = push_plans(name, direction, distance, arm)
+    plans = push_plans(name, direction, distance, arm, angles)
     push = next(plans)  # ObjectUnpushable before anything moves
     for attempt in range(PUSH_ATTEMPTS):
         if attempt:
@@ -564,6 +630,12 @@ async def push_clear_of_counter(object_designator: ObjectDesignator) -> ObjectDe
             Key("direction", "(x, y) in map", "where to push it", required=True),
             Key("distance", "number (m) > 0", "how far", required=True),
             Key("arm", "'left' | 'right'", "the arm to push with", default="the first that works"),
+            Key(
+                "angles",
+                "tuple of angles (rad)",
+                "the directions tried, from the given one",
+                default="PUSH_ANGLES (0, +-30, +-50, +-65 degrees)",
+            ),
         ),
         raises=(ObjectUnpushable,),
         performs=(
@@ -574,7 +646,8 @@ async def push_clear_of_counter(object_designator: ObjectDesignator) -> ObjectDe
             "retracting",
             "detecting",
         ),
-        note="Deliberate addition: CRAM's pushing is an arm motion only.",
+        note="Deliberate addition: CRAM's pushing is an arm motion only. The pushed object "
+        "is the action's own: moving it is not a knock.",
     ),
 )
 def _pushing_object(d: Designator) -> Iterator[Any]:
@@ -587,6 +660,13 @@ def _pushing_object(d: Designator) -> Iterator[Any]:
     distance = d.get("distance")
     if isinstance(distance, bool) or not isinstance(distance, (int, float)):
         raise DesignatorInputError(f"{d.short()}: distance is a number of metres", d)
+    angles = d.get("angles", PUSH_ANGLES)
+    if not (
+        isinstance(angles, tuple)
+        and angles
+        and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in angles)
+    ):
+        raise DesignatorInputError(f"{d.short()}: angles is a non-empty tuple of radians", d)
     yield (
         push_object,
         {
@@ -594,6 +674,7 @@ def _pushing_object(d: Designator) -> Iterator[Any]:
             "direction": (float(direction[0]), float(direction[1])),
             "distance": float(distance),
             "arm": d.get("arm"),
+            "angles": tuple(float(x) for x in angles),
         },
     )
 

@@ -13,10 +13,12 @@ it lies first.
 
 A box lying on its broad face (the cereal box on its 0.19 x 0.29 m face) is wider than
 the gripper on every side that faces up: no grasp fits, and from the side one finger
-would have to go under it, into the counter. ``fetch`` then fails at once with
-:class:`ObjectToppledUngraspable`, naming the face it lies on and the widths, logged and
-counted (``toppled-ungraspable``), before anything moves: CRAM's plans (and this
-project's before) spent every relocation and pick check on it.
+would have to go under it, into the counter. ``fetch`` then pushes it over the edge of
+the counter it lies on and grasps the end that sticks out from the side
+(:mod:`plans.overhang`); where no push can do that, it fails with
+:class:`ObjectToppledUngraspable`, naming the face it lies on, the widths and why no push
+works, logged and counted (``toppled-ungraspable``), before anything moves: CRAM's plans
+(and this project's before) spent every relocation and pick check on it.
 
 Deliberate difference from CRAM: its grasps assume an upright object, so a toppled one
 was probed (and failed) like an upright one; it never picked an object the way it lies,
@@ -37,6 +39,7 @@ __all__ = [
     "ObjectToppledUngraspable",
     "check_graspable_as_it_lies",
     "lying_grasps",
+    "ungraspable_as_it_lies",
 ]
 
 log = logging.getLogger(__name__)
@@ -81,12 +84,25 @@ def check_graspable_as_it_lies(
     """Raise :class:`ObjectToppledUngraspable` (logged at WARNING, counted as
     ``toppled-ungraspable``) when the object lies and no grasp of its type fits any of
     the robot's arms (:func:`lying_grasps`), naming the face that faces up, the widths
-    the fingers would close across, and the grippers' openings. An upright object, or a
-    lying one with a grasp that fits: nothing happens."""
+    the fingers would close across, and the grippers' openings
+    (:func:`ungraspable_as_it_lies`). An upright object, or a lying one with a grasp
+    that fits: nothing happens."""
+    why = ungraspable_as_it_lies(object_type, object_transform)
+    if why is None:
+        return
+    log.warning("%s cannot be picked as it lies: %s", object_label(object_designator), why)
+    tally("toppled-ungraspable")
+    raise ObjectToppledUngraspable(why, object=object_label(object_designator))
+
+
+def ungraspable_as_it_lies(object_type: str, object_transform: Transform | Pose) -> str | None:
+    """Why no grasp of ``object_type`` fits any of the robot's arms from above as
+    ``object_transform`` has it lying (see :func:`check_graspable_as_it_lies`); None for
+    an upright object or a lying one with a grasp that fits. Nothing is logged."""
     grasps = knowledge.grasps(object_type)
     arms = arm_names()
     if any(lying_grasps(object_type, object_transform, grasps, arm) for arm in arms):
-        return
+        return None
     from_above = [
         g
         for g in grasps
@@ -106,10 +122,7 @@ def check_graspable_as_it_lies(
         )
     else:
         reason = "none of its type's grasps approaches it from above as it lies"
-    why = (
+    return (
         f"the {object_type} lies toppled on its {a:.2f} x {b:.2f} m face: {reason}; "
         f"the grippers open {openings}"
     )
-    log.warning("%s cannot be picked as it lies: %s", object_label(object_designator), why)
-    tally("toppled-ungraspable")
-    raise ObjectToppledUngraspable(why, object=object_label(object_designator))

@@ -408,11 +408,12 @@ class ArmsPM(ProjectionProcessModule):
 
 
 #: Actions whose object a motion inside them may move (the knock count's "own" actions).
-_OWN_ACTIONS = frozenset({"picking-up", "placing"})
+_OWN_ACTIONS = frozenset({"picking-up", "placing", "pushing-object"})
 
 
 def _own_objects() -> frozenset[str]:
-    """The objects of the ``picking-up``/``placing`` actions the running task is inside
+    """The objects of the ``picking-up``/``placing``/``pushing-object`` actions the
+    running task is inside
     (a motion may sweep its own object: the plan-level probes allow it, and the knock
     count does not count it)."""
     own: set[str] = set()

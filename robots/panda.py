@@ -96,6 +96,9 @@ DESCRIPTION = RobotDescription(
                 open_position=0.04,
                 closed_position=0.0,
                 effort=20.0,  # the URDF's finger effort limit (N)
+                # the finger links' bounding boxes end 0.011 m beyond panda_grasptarget
+                # along its z (measured with pybullet_data's URDF, the gripper open)
+                finger_reach=0.01,
             ),
             # pybullet_data's Panda reaches 0.95 m from its joint1 axis (sampled); scaled
             # like the PR2-like robot's 0.7 m of its ~0.95 m, from a mount 0.12 m ahead

@@ -96,6 +96,9 @@ def _arm(name: str) -> ArmDescription:
             open_position=0.05,
             closed_position=0.0,
             effort=100.0,
+            # the finger boxes (0.09 m) end 0.02 m beyond the tool frame (measured in the
+            # projection world's URDF: centred 0.025 m behind it)
+            finger_reach=0.02,
         ),
         reach=Reach(in_reach_distance=0.7, minimal_distance=0.2),
         states={state: values[name] for state, values in _STATES.items()},
