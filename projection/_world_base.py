@@ -364,9 +364,11 @@ class WorldBase:
         """How often this world's arm-motion answers were reused: ``plan_hits`` /
         ``plan_misses`` of its arms' OMPL plan caches (``ArmMotionPlanner.plan``),
         ``sweep_hits`` / ``sweep_misses`` of :attr:`sweep_memo` (the controller paths
-        checked by the probes and the projected arms module), and ``planning_fallbacks``
-        (:attr:`motion_planning_fallbacks`: planned motions that took the old router). For
-        the bench and the campaign report."""
+        checked by the probes and the projected arms module), ``planning_fallbacks``
+        (:attr:`motion_planning_fallbacks`: planned motions that took the old router) and
+        ``graze_repairs`` (the plans that grazed the exact geometry and verified after
+        their grazing states were forbidden: ``ArmMotionPlanner.repaired``). For the bench
+        and the campaign report."""
         planners = list(self._arm_planners.values())
         return {
             "plan_hits": sum(p.cache_hits for p in planners),
@@ -374,6 +376,7 @@ class WorldBase:
             "sweep_hits": self.sweep_memo.hits,
             "sweep_misses": self.sweep_memo.misses,
             "planning_fallbacks": self.motion_planning_fallbacks,
+            "graze_repairs": sum(p.repaired for p in planners),
         }
 
     # ------------------------------------------------------------------ lifecycle

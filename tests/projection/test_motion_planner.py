@@ -17,9 +17,12 @@ from projection import World
 from projection._collision_model import CollisionModel
 from projection._motion_planner import (
     MAX_CHECKS,
+    REPAIR_ROUNDS,
+    VERIFY_RESOLUTION,
     ArmMotionPlanner,
     ArmTrajectory,
     _Checker,
+    _Forbidden,
     time_parameterise,
 )
 from projection._objects import object_type
@@ -489,6 +492,7 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
         "sweep_hits": 0,
         "sweep_misses": 0,
         "planning_fallbacks": 0,
+        "graze_repairs": 0,
     }
     first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     sink.move_joints(right=start)
@@ -675,3 +679,63 @@ def test_an_arm_tucked_between_its_torso_and_the_other_arm_plans_its_way_out() -
                     assert exact.contacts(a + (j / k) * (b - a)) == []
         finally:
             planner.close()
+
+
+#: Right-arm queries in the open (the robot at carry, nothing within reach), found by a
+#: seeded random search (numpy default_rng(0) over the joint ranges): at seed 1 the plan
+#: is valid at the planning resolution, but between two of its checked states the right
+#: fingers graze the torso (the first) or the robot's base (the second) in the exact
+#: geometry. Halving the resolution, the previous
+#: repair, grazed too: "path not verified", and the controller fell back to its router.
+SELF_GRAZES = (
+    (
+        (-1.659644395079029, 0.5729404746647765, -3.192981137861214, -1.883156792856374,
+         -0.28713355251102035, -1.4713592502585313, -0.7448356035782764),
+        (-0.5284058396593625, 1.3862579872551235, -3.4618251797328456, -1.3239521487771957,
+         0.6620570365146055, -0.650867336837814, -1.5969694749391876),
+    ),
+    (
+        (-0.5952757210587634, 0.9748979074885326, -3.011010813748295, -0.17842456034183396,
+         -0.9944380486205286, -0.9835611249969676, 0.8355533453508341),
+        (-0.640160741482124, 0.594865705323195, -3.4137429239897212, -1.1599970534271764,
+         1.5697719962843415, -1.7980184789658544, 2.6937693269325145),
+    ),
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("query", SELF_GRAZES)
+def test_a_path_that_grazes_the_robots_own_body_is_repaired(
+    query: tuple[tuple[float, ...], tuple[float, ...]],
+) -> None:
+    """The lazy repair: the grazing states are forbidden to the planning check and the
+    query is planned again; the path returned is clear in the exact geometry at the
+    verification resolution, and it is the one the cache remembers."""
+    start, goal = query
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        planner = _planner(world)
+        try:
+            robot_links = set(planner.model.links[planner.model.robot])
+            assert planner.collisions(start) == [] and planner.collisions(goal) == []
+            hits = _straight_hits(planner, start, goal)
+            assert hits and all(x in robot_links and y in robot_links for x, y in hits)
+            t = planner.plan(start, goal, seed=1)
+            assert t.planned and 1 <= t.repairs <= REPAIR_ROUNDS
+            assert (planner.repaired, planner.repair_rounds) == (1, t.repairs)
+            assert tuple(t.positions[0]) == start and tuple(t.positions[-1]) == goal
+            _exactly_clear(planner, t, VERIFY_RESOLUTION)
+            assert planner.plan(start, goal, seed=1) is t  # the repaired path, remembered
+        finally:
+            planner.close()
+
+
+def test_a_forbidden_ball_never_holds_the_start_or_the_goal() -> None:
+    a, b = np.zeros(3), np.array([1.0, 0.0, 0.0])
+    forbidden = _Forbidden(0.08, a, b)
+    forbidden.add(np.array([0.5, 0.0, 0.0]))
+    assert forbidden.near([0.55, 0.0, 0.0]) and not forbidden.near([0.6, 0.0, 0.0])
+    forbidden.add(np.array([0.04, 0.0, 0.0]))  # near the start: half its distance
+    assert forbidden.near([0.03, 0.0, 0.0]) and not forbidden.near([0.01, 0.0, 0.0])
+    assert not forbidden.near(a) and not forbidden.near(b)
+    forbidden.add(np.array([0.505, 0.0, 0.0]))  # inside the first ball's core: skipped
+    assert len(forbidden) == 2
