@@ -191,7 +191,10 @@ class WorldBase:
                 if info[2] != pb.JOINT_FIXED:
                     joints[info[1].decode()] = i
                     if body == self._robot:
-                        self._limits[i] = (float(info[8]), float(info[9]))
+                        lo, hi = float(info[8]), float(info[9])
+                        if lo > hi:  # PyBullet's continuous joint: no limits
+                            lo, hi = -math.inf, math.inf
+                        self._limits[i] = (lo, hi)
         self._kitchen_limits = {
             n: tuple(pb.getJointInfo(self._kitchen, i, physicsClientId=c)[8:10])
             for n, i in self._kitchen_joints.items()
@@ -575,7 +578,8 @@ class WorldBase:
 
     def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
         """``(joint, lower, upper)`` of the arm's joints (its description's ``joints``
-        order), from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        order), from the robot's URDF: the limits :meth:`move_joints` enforces; a
+        continuous joint (endless: the PR2's forearm and wrist roll) has ``-inf, inf``."""
         names = self.robot.arm(self._arm(arm)).joints
         return tuple(
             (name, *self._limits[i]) for name, i in zip(names, self._arm_joints[self._arm(arm)])
