@@ -274,17 +274,17 @@ class _Forbidden:
     (lazy collision checking, as LazyPRM checks an edge only once a path uses it): each
     state the exact verification found in contact between the planning model's checked
     states is the centre of a ball (``radius``, L2) no planned state may enter, so the
-    next plan passes farther from the graze. A ball never holds the query's start or
-    goal: near them it shrinks to half the distance to the nearer end.
+    next plan passes farther from the graze. A ball never holds the query's ends (its
+    start, its goal's turns): near them it shrinks to half the distance to the nearest.
 
     Deliberate difference from padding the robot's own links (tried: more fallbacks, and
     a plan that grazed the padded self model by a hair swept the milk): only the states
     proven to graze are excluded, the rest of the space stays as the planning model has
     it."""
 
-    def __init__(self, radius: float, start: np.ndarray, goal: np.ndarray) -> None:
+    def __init__(self, radius: float, *ends: np.ndarray) -> None:
         self.radius = radius
-        self.ends = (start, goal)
+        self.ends = ends
         # invariant: as many radii as centres; each radius <= self.radius and below the
         # centre's distance to the start and to the goal
         self._centres: list[np.ndarray] = []
@@ -723,6 +723,22 @@ class ArmMotionPlanner:
                 out[j] = a[j] + math.remainder(float(b[j] - a[j]), 2.0 * math.pi)
         return out
 
+    def _turns(self, a: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
+        """The goals of a query from ``a`` to ``b`` (``b`` at its nearest turn): ``b``
+        first, then ``b`` with its continuous joints one turn the other way round ``a``
+        (every combination; none without continuous joints). The straight line and the
+        sampler go to ``b``; only when the sampler finds no path there within its budget
+        does it try the others (:meth:`_sample_turns`)."""
+        cont = [j for j, c in enumerate(self.chain.continuous) if c]
+        out = [b]
+        for k in range(1, len(cont) + 1):
+            for chosen in itertools.combinations(cont, k):
+                g = b.copy()
+                for j in chosen:
+                    g[j] += -2.0 * math.pi if b[j] >= a[j] else 2.0 * math.pi
+                out.append(g)
+        return out
+
     def collisions(self, q: Q, allowed_contacts: Iterable[str] = ()) -> list[tuple[str, str]]:
         """The forbidden contacts (moving part, what it touches) at ``q`` in the exact
         geometry; the model is left at ``q``."""
@@ -796,6 +812,7 @@ class ArmMotionPlanner:
         # answer depends on nothing but the configuration while the query runs (the
         # models, the allowed and persisting contacts are fixed until it returns)
         memo: dict[bytes, bool] = {}
+        ends = [a, *self._turns(a, b)]  # the start, the goal's turns (the nearest first)
 
         def check(q: Q) -> bool:
             v = np.asarray(q, dtype=float)
@@ -805,7 +822,7 @@ class ArmMotionPlanner:
                 return known
             ok = padded.valid(v)
             if not ok:
-                near = min(np.linalg.norm(v - a), np.linalg.norm(v - b)) < ESCAPE
+                near = min(np.linalg.norm(v - e) for e in ends) < ESCAPE
                 ok = bool(near and exact.valid(v))
             memo[k] = ok
             return ok
@@ -814,13 +831,13 @@ class ArmMotionPlanner:
             # the same query in a world equal up to the quanta: the remembered path, its
             # ends moved to this query's, if the exact geometry confirms it now
             vertices = cached.vertices.copy()
-            vertices[0], vertices[-1] = a, b
+            vertices[0], vertices[-1] = a, self._nearest(cached.vertices[-1], b)
             if all(exact.valid(q) for q in _dense(vertices, self.verify_resolution)):
                 self._hit(key)
                 positions, times = time_parameterise(
                     vertices, self.chain.max_velocity, self.acceleration, self.resolution
                 )
-                positions[0], positions[-1] = a, b
+                positions[0], positions[-1] = a, vertices[-1]
                 trajectory = _frozen(
                     ArmTrajectory(self.chain.joints, positions, times, cached.planned, exact.calls)
                 )
@@ -883,7 +900,8 @@ class ArmMotionPlanner:
         states are forbidden to the planning check and the query is planned again, at
         most :data:`REPAIR_ROUNDS` times, each within the check budget."""
         resolution = self.resolution
-        forbidden = _Forbidden(self.repair_radius, a, b)
+        goals = self._turns(a, b)
+        forbidden = _Forbidden(self.repair_radius, a, *goals)
 
         def lazy(q: Q) -> bool:
             return not forbidden.near(q) and check(q)
@@ -892,15 +910,15 @@ class ArmMotionPlanner:
             vertices = self._straight(a, b, lazy, resolution)
             planned = vertices is None
             if vertices is None:
-                vertices = self._sample(
-                    a, b, lazy, padded, seed + 1, resolution, max_checks, timeout
+                vertices = self._sample_turns(
+                    a, goals, lazy, padded, seed + 1, resolution, max_checks, timeout
                 )
             grazes = self._grazes(vertices, exact)
             if not grazes:
                 positions, times = time_parameterise(
                     vertices, self.chain.max_velocity, self.acceleration, resolution
                 )
-                positions[0], positions[-1] = a, b
+                positions[0], positions[-1] = a, vertices[-1]
                 calls = padded.calls + exact.calls
                 if attempt:
                     self.repaired += 1
@@ -987,10 +1005,34 @@ class ArmMotionPlanner:
             return line
         return None
 
+    def _sample_turns(
+        self,
+        a: np.ndarray,
+        goals: Sequence[np.ndarray],
+        check: Check,
+        padded: _Checker,
+        seed: int,
+        resolution: float,
+        max_checks: int,
+        timeout: float,
+    ) -> np.ndarray:
+        """:meth:`_sample` to the goal's nearest turn (``goals[0]``); when that spends
+        its budget and the chain has continuous joints, again to their other turns
+        (``goals[1:]``, OMPL's ``GoalStates``), with a budget of their own: an arm
+        tucked between its torso and the other arm may find no way out turning its
+        forearm the short way, and one the long way."""
+        try:
+            return self._sample(a, goals[:1], check, padded, seed, resolution, max_checks, timeout)
+        except ManipulationPoseUnreachable as e:
+            if len(goals) == 1 or e.details.get("reason") != "budget spent":
+                raise
+        log.info("no arm path to the goal's nearest turn within the budget: trying the others")
+        return self._sample(a, goals[1:], check, padded, seed, resolution, max_checks, timeout)
+
     def _sample(
         self,
         a: np.ndarray,
-        b: np.ndarray,
+        goals: Sequence[np.ndarray],
         check: Check,
         padded: _Checker,
         seed: int,
@@ -1003,9 +1045,9 @@ class ArmMotionPlanner:
         space = ob.RealVectorStateSpace(n)
         bounds = ob.RealVectorBounds(n)
         for j in range(n):
-            if chain.continuous[j]:
-                lo = min(a[j], b[j]) - math.pi
-                hi = max(a[j], b[j]) + math.pi
+            if chain.continuous[j]:  # the start and the goals' turns, half a turn beyond
+                lo = min(a[j], *(g[j] for g in goals)) - math.pi
+                hi = max(a[j], *(g[j] for g in goals)) + math.pi
             else:
                 lo, hi = chain.lower[j], chain.upper[j]
             bounds.setLow(j, float(lo))
@@ -1033,7 +1075,11 @@ class ArmMotionPlanner:
             space.enforceBounds(s)
             return s
 
-        ss.setStartAndGoalStates(state(a), state(b))
+        ss.setStartState(state(a))
+        goal = ob.GoalStates(si)
+        for g in goals:
+            goal.addState(state(g))
+        ss.setGoal(goal)
         planner = og.RRTConnect(si)
         planner.setRange(RANGE)
         ss.setPlanner(planner)
@@ -1060,8 +1106,9 @@ class ArmMotionPlanner:
         simplifier.simplifyMax(path)
         vertices = np.array([s[0:n] for s in path.getStates()], dtype=float)
         vertices[0] = a
-        if float(np.max(np.abs(vertices[-1] - b))) > 1e-9:
-            vertices = np.vstack([vertices, b])
+        reached = min(goals, key=lambda g: float(np.max(np.abs(vertices[-1] - g))))
+        if float(np.max(np.abs(vertices[-1] - reached))) > 1e-9:
+            vertices = np.vstack([vertices, reached])
         else:
-            vertices[-1] = b
+            vertices[-1] = reached
         return vertices
