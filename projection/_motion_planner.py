@@ -762,8 +762,9 @@ class ArmMotionPlanner:
         """A collision-free timed path from ``start`` to ``goal`` (see the module
         docstring). ``allowed_contacts``: object names and fixed-body link names the touch
         links and held objects may touch on the way (a free motion allows none). A
-        continuous joint of ``goal`` is reached at its equivalent nearest ``start`` (whole
-        turns away: the trajectory ends there, the same pose).
+        continuous joint of ``goal`` is reached at its turn nearest ``start`` (whole turns
+        away: the trajectory ends there, the same pose), or at its other turn when no path
+        there is found within the budget (:meth:`_sample_turns`).
         ``seed`` >= 0 (OMPL replaces 0 by 1, so it gets ``seed + 1``). No path:
         :class:`ManipulationPoseUnreachable` (``reason`` names why)."""
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
