@@ -221,11 +221,19 @@ def _describe(atask: asyncio.Task[Any]) -> str:
 
 def _arm_error(world: Any, configuration: str) -> dict[str, float]:
     """Per arm of the world's robot: the largest joint distance (rad) from its named
-    configuration ``configuration`` (the description's ``arm.state``)."""
+    configuration ``configuration`` (the description's ``arm.state``); a continuous joint
+    (limits ``-inf, inf`` in ``world.arm_joint_limits``) by the shorter way round, whole
+    turns apart being the same pose."""
     out = {}
     for arm in world.robot.arms:
         target = arm.state(configuration)
-        out[arm.name] = max(abs(a - b) for a, b in zip(world.arm_joints(arm.name), target))
+        limits = world.arm_joint_limits(arm.name)
+        out[arm.name] = max(
+            abs(math.remainder(a - b, 2.0 * math.pi))
+            if math.isinf(lo) or math.isinf(hi)
+            else abs(a - b)
+            for a, b, (_joint, lo, hi) in zip(world.arm_joints(arm.name), target, limits)
+        )
     return out
 
 

@@ -10,7 +10,8 @@ Robot (PR2 names, approximate PR2 dimensions): ``base_footprint`` on the floor;
 at (-0.05, 0, 0.7907) + the prismatic ``torso_lift_joint`` (0..0.33 m); shoulders at
 y = ±0.188 in the torso frame, ``shoulder_lift`` 0.1 m ahead of the pan axis, upper arm
 0.4 m, forearm 0.321 m, ``?_gripper_tool_frame`` 0.18 m past ``?_wrist_roll_link``;
-fingers are **prismatic** ``?_gripper_l/r_finger_joint`` 0..0.05 m each (opening = 2 q,
+the forearm and wrist roll joints are **continuous** (endless, as on the PR2); fingers
+are **prismatic** ``?_gripper_l/r_finger_joint`` 0..0.05 m each (opening = 2 q,
 0..0.10 m, CRAM's usual opening). Camera ``head_mount_kinect_rgb_optical_frame`` (z
 forward, x right, y down) is 1.27 m above the floor at torso 0 and 1.60 m at 0.33.
 
@@ -69,7 +70,7 @@ class Link:
 @dataclass(frozen=True)
 class Joint:
     name: str
-    kind: str  # fixed | revolute | prismatic
+    kind: str  # fixed | revolute | prismatic | continuous (no lower/upper: endless)
     parent: str
     child: str
     xyz: Vec3 = (0.0, 0.0, 0.0)
@@ -143,9 +144,8 @@ def _joint_xml(j: Joint) -> str:
     out.append(f'    <origin xyz="{_v(j.xyz)}" rpy="{_v(j.rpy)}"/>')
     if j.kind != "fixed":
         out.append(f'    <axis xyz="{_v(j.axis)}"/>')
-        out.append(
-            f'    <limit lower="{_f(j.lower)}" upper="{_f(j.upper)}" effort="100" velocity="1"/>'
-        )
+        bounds = "" if j.kind == "continuous" else f'lower="{_f(j.lower)}" upper="{_f(j.upper)}" '
+        out.append(f'    <limit {bounds}effort="100" velocity="1"/>')
     out.append("  </joint>")
     return "\n".join(out)
 
@@ -249,12 +249,10 @@ def _arm(side: str) -> tuple[list[Link], list[Joint]]:
         ),
         Joint(
             p + "forearm_roll_joint",
-            "revolute",
+            "continuous",
             p + "elbow_flex_link",
             p + "forearm_roll_link",
             axis=x_axis,
-            lower=-math.pi,
-            upper=math.pi,
         ),
         Joint(
             p + "wrist_flex_joint",
@@ -268,12 +266,10 @@ def _arm(side: str) -> tuple[list[Link], list[Joint]]:
         ),
         Joint(
             p + "wrist_roll_joint",
-            "revolute",
+            "continuous",
             p + "wrist_flex_link",
             p + "wrist_roll_link",
             axis=x_axis,
-            lower=-math.pi,
-            upper=math.pi,
         ),
         Joint(p + "gripper_palm_joint", "fixed", p + "wrist_roll_link", p + "gripper_palm_link"),
         Joint(

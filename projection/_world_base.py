@@ -191,7 +191,10 @@ class WorldBase:
                 if info[2] != pb.JOINT_FIXED:
                     joints[info[1].decode()] = i
                     if body == self._robot:
-                        self._limits[i] = (float(info[8]), float(info[9]))
+                        lo, hi = float(info[8]), float(info[9])
+                        if lo > hi:  # PyBullet's continuous joint: no limits
+                            lo, hi = -math.inf, math.inf
+                        self._limits[i] = (lo, hi)
         self._kitchen_limits = {
             n: tuple(pb.getJointInfo(self._kitchen, i, physicsClientId=c)[8:10])
             for n, i in self._kitchen_joints.items()
@@ -364,9 +367,11 @@ class WorldBase:
         """How often this world's arm-motion answers were reused: ``plan_hits`` /
         ``plan_misses`` of its arms' OMPL plan caches (``ArmMotionPlanner.plan``),
         ``sweep_hits`` / ``sweep_misses`` of :attr:`sweep_memo` (the controller paths
-        checked by the probes and the projected arms module), and ``planning_fallbacks``
-        (:attr:`motion_planning_fallbacks`: planned motions that took the old router). For
-        the bench and the campaign report."""
+        checked by the probes and the projected arms module), ``planning_fallbacks``
+        (:attr:`motion_planning_fallbacks`: planned motions that took the old router) and
+        ``graze_repairs`` (the plans that grazed the exact geometry and verified after
+        their grazing states were forbidden: ``ArmMotionPlanner.repaired``). For the bench
+        and the campaign report."""
         planners = list(self._arm_planners.values())
         return {
             "plan_hits": sum(p.cache_hits for p in planners),
@@ -374,6 +379,7 @@ class WorldBase:
             "sweep_hits": self.sweep_memo.hits,
             "sweep_misses": self.sweep_memo.misses,
             "planning_fallbacks": self.motion_planning_fallbacks,
+            "graze_repairs": sum(p.repaired for p in planners),
         }
 
     # ------------------------------------------------------------------ lifecycle
@@ -572,7 +578,8 @@ class WorldBase:
 
     def arm_joint_limits(self, arm: str) -> tuple[tuple[str, float, float], ...]:
         """``(joint, lower, upper)`` of the arm's joints (its description's ``joints``
-        order), from the robot's URDF: the limits :meth:`move_joints` enforces."""
+        order), from the robot's URDF: the limits :meth:`move_joints` enforces; a
+        continuous joint (endless: the PR2's forearm and wrist roll) has ``-inf, inf``."""
         names = self.robot.arm(self._arm(arm)).joints
         return tuple(
             (name, *self._limits[i]) for name, i in zip(names, self._arm_joints[self._arm(arm)])

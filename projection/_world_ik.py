@@ -101,7 +101,10 @@ def _seeds(
 
 
 def _into_limits(v: float, lo: float, hi: float) -> float:
-    """Wrap a full-turn joint (limits ±π) into its range, clamp the others."""
+    """Wrap a continuous joint into [-π, π) and a full-turn joint (limits ±π) into its
+    range, clamp the others."""
+    if math.isinf(lo) or math.isinf(hi):
+        return (v + math.pi) % (2 * math.pi) - math.pi
     if hi - lo >= 2 * math.pi - 1e-3:
         v = (v - lo) % (2 * math.pi) + lo
     return min(max(v, lo), hi)

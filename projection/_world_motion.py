@@ -4,6 +4,7 @@ leaves the world unchanged on failure."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import pybullet as pb
@@ -72,7 +73,8 @@ class BodyMotions(Collisions):
     ) -> None:
         """Set the arm joints (each arm's description's ``joints``, in order) of the given
         sides. An arm the robot lacks, wrong length, non-finite values or values outside
-        the joint limits -> ValueError naming them; world unchanged."""
+        the joint limits -> ValueError naming them; world unchanged. A continuous joint
+        (limits ``-inf, inf``) takes any value and reads back wrapped into [-pi, pi)."""
         self._check()
         goals: list[tuple[list[int], tuple[float, ...]]] = []
         for arm, values in (("left", left), ("right", right)):
@@ -90,6 +92,12 @@ class BodyMotions(Collisions):
                 lo, hi = self._limits[i]
                 if not lo - 1e-6 <= v <= hi + 1e-6:
                     raise ValueError(f"{arm} {jname} = {v:.4f} outside [{lo}, {hi}]")
+            # a continuous joint is kept in [-pi, pi) (the same pose): a path that turns
+            # it across the wrap is interpolated unwrapped, its readings stay wrapped
+            vals = tuple(
+                (v + math.pi) % (2.0 * math.pi) - math.pi if math.isinf(self._limits[i][1]) else v
+                for i, v in zip(indices, vals)
+            )
             goals.append((indices, vals))
         for indices, vals in goals:
             self._set_joints(indices, vals)

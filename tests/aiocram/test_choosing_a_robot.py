@@ -294,7 +294,12 @@ def test_arm_errors_are_per_arm_of_the_description():
     from aiocram.truth import _arm_error
 
     arm = PANDA.arms[0]
-    at_park = SimpleNamespace(robot=PANDA, arm_joints=lambda name: arm.state("park"))
+    limits = tuple((j, -2.9, 2.9) for j in arm.joints)  # the Panda has no continuous joint
+    at_park = SimpleNamespace(
+        robot=PANDA,
+        arm_joints=lambda name: arm.state("park"),
+        arm_joint_limits=lambda name: limits,
+    )
     assert _arm_error(at_park, "park") == {"left": 0.0}
     carry = max(abs(a - b) for a, b in zip(arm.state("park"), arm.state("carry"), strict=True))
     assert _arm_error(at_park, "carry") == {"left": pytest.approx(carry)}
@@ -343,3 +348,26 @@ def test_the_plots_draw_a_line_per_robot_and_mode(tmp_path, monkeypatch):
     assert [p.name for p in _plot(summary, tmp_path)] == ["success_rate.png", "distance.png"]
     assert labels[1] == ["panda, with projection", "pr2, with projection"]
     assert labels[0][0] == "panda, with projection (95 % interval)"
+
+
+def test_arm_errors_count_a_continuous_joint_the_short_way_round():
+    """The PR2's forearm and wrist roll are continuous: an arm at park but for whole turns
+    of them (or read a hair past the wrap) is at park."""
+    from aiocram.truth import _arm_error
+    from projection import World
+
+    with World(seed=0) as world:
+        limits = world.arm_joint_limits("right")
+    park = robots.pr2.DESCRIPTION.arm("right").state("park")
+    turned = tuple(
+        v + (2.0 * math.pi if math.isinf(hi) else 0.0) for v, (_j, _lo, hi) in zip(park, limits)
+    )
+    assert turned != park  # it has continuous joints
+    right_only = SimpleNamespace(arms=(robots.pr2.DESCRIPTION.arm("right"),))
+    at = SimpleNamespace(
+        robot=right_only, arm_joints=lambda name: turned, arm_joint_limits=lambda name: limits
+    )
+    assert _arm_error(at, "park")["right"] == pytest.approx(0.0, abs=1e-9)
+    nudged = (*park[:4], park[4] + 0.3, *park[5:])
+    at.arm_joints = lambda name: nudged
+    assert _arm_error(at, "park")["right"] == pytest.approx(0.3)

@@ -35,4 +35,5 @@ def test_the_record_counts_the_belief_worlds_sweeps() -> None:
         "sweep_hits",
         "sweep_misses",
         "planning_fallbacks",
+        "graze_repairs",
     }

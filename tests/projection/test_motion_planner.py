@@ -15,12 +15,16 @@ from executive import Pose, knowledge
 from executive.failures import ManipulationPoseUnreachable
 from kitchens import iai as kitchen
 from projection import World
+from projection._arm_planner import nearest_turn
 from projection._collision_model import CollisionModel
 from projection._motion_planner import (
     MAX_CHECKS,
+    REPAIR_ROUNDS,
+    VERIFY_RESOLUTION,
     ArmMotionPlanner,
     ArmTrajectory,
     _Checker,
+    _Forbidden,
     time_parameterise,
 )
 from projection._objects import object_type
@@ -45,14 +49,22 @@ def _planner(world: World, **kwargs: float) -> ArmMotionPlanner:
     return ArmMotionPlanner.for_world(world, RIGHT, TOOL, touch, **kwargs)
 
 
+def _ranges(planner: ArmMotionPlanner) -> tuple[np.ndarray, np.ndarray]:
+    """The chain's joint ranges to sample from (a continuous joint: one turn)."""
+    chain = planner.chain
+    cont = np.array(chain.continuous)
+    return np.where(cont, -np.pi, chain.lower), np.where(cont, np.pi, chain.upper)
+
+
 def _pregrasp(world: World) -> tuple[float, ...]:
-    """The right arm's configuration at the cup's back pregrasp (the arm is put back)."""
+    """The right arm's configuration at the cup's back pregrasp (the arm is put back),
+    its continuous joints at the turn nearest the arm's (the goal the planner reaches)."""
     start = world.arm_joints("right")
     cup = world.object_pose("cup-1", "base_footprint").to_transform("cup-1")
     world.move_tcp(right=knowledge.grasp_poses("cup", "back", cup, PR2_TOOL)[0])
     goal = world.arm_joints("right")
     world.move_joints(right=start)
-    return goal
+    return nearest_turn(world, "right", goal, start)
 
 
 @pytest.fixture()
@@ -138,11 +150,10 @@ def test_self_collision_is_avoided() -> None:
         planner = _planner(world)
         try:
             robot_links = set(planner.model.links[planner.model.robot])
-            chain = planner.chain
             rng = np.random.default_rng(0)
             for _ in range(500):
-                a = rng.uniform(chain.lower, chain.upper)
-                b = rng.uniform(chain.lower, chain.upper)
+                a = rng.uniform(*_ranges(planner))
+                b = rng.uniform(*_ranges(planner))
                 if planner.collisions(a) or planner.collisions(b):
                     continue
                 hits = _straight_hits(planner, a, b)
@@ -490,6 +501,7 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
         "sweep_hits": 0,
         "sweep_misses": 0,
         "planning_fallbacks": 0,
+        "graze_repairs": 0,
     }
     first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     sink.move_joints(right=start)
@@ -595,7 +607,7 @@ def test_a_self_contact_at_the_start_persists_without_deepening() -> None:
             goal = np.array(world.arm_joints("right"))
             rng = np.random.default_rng(0)
             for _ in range(500):
-                a = rng.uniform(chain.lower, chain.upper)
+                a = rng.uniform(*_ranges(planner))
                 hits = planner.collisions(a)
                 if hits and all(x in robot_links and y in robot_links for x, y in hits):
                     break
@@ -758,3 +770,60 @@ def test_contacts_switched_off_for_a_held_object_are_switched_on_before_it_goes(
             assert any(what == "held" and part.startswith("r_gripper") for part, what in hits)
         finally:
             planner.close()
+
+
+#: Right-arm queries in the open (the robot at carry, nothing within reach), found by a
+#: seeded random search (numpy default_rng(1) over the joint ranges): at seed 1 the plan
+#: is valid at the planning resolution, but between two of its checked states the right
+#: palm grazes the robot's base (the first) or its torso (the second) in the exact
+#: geometry. Halving the resolution, the previous repair, grazed too: "path not
+#: verified", and the controller fell back to its router.
+SELF_GRAZES = (
+    (
+        (-0.8504193008747922, 0.45395148057861257, -2.8886576000502457, -0.12551736281456272,
+         0.33981619549353104, -0.018212197223654858, 2.1628074050973582),
+        (-1.0871119391421094, 1.2964040917036086, -1.7492126417135112, -1.4644856615011586,
+         2.1131872900534603, -1.0858947731099016, -0.4481619275160975),
+    ),
+    (
+        (0.048972893836027875, 0.8991017041618438, -3.4580599886984196, -1.9567144322290304,
+         -3.0457962284871343, -1.1445499715414302, 0.04766769090044409),
+        (-1.1936192174979185, 0.4047421999930857, -1.9851508432918128, -2.2492575646303608,
+         -2.7136637645160113, -0.07749582458024751, 0.0626830339335358),
+    ),
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("query", SELF_GRAZES)
+def test_a_path_that_grazes_the_robots_own_body_is_repaired(
+    query: tuple[tuple[float, ...], tuple[float, ...]],
+) -> None:
+    """The lazy repair: the grazing states are forbidden to the planning check and the
+    query is planned again; the path returned is clear in the exact geometry at the
+    verification resolution, and it is the one the cache remembers."""
+    start, goal = query
+    with World(seed=0) as world:
+        world.park_arms("carry")
+        planner = _planner(world)
+        try:
+            assert planner.collisions(start) == [] and planner.collisions(goal) == []
+            t = planner.plan(start, goal, seed=1)
+            assert t.planned and 1 <= t.repairs <= REPAIR_ROUNDS
+            assert (planner.repaired, planner.repair_rounds) == (1, t.repairs)
+            assert tuple(t.positions[0]) == start and tuple(t.positions[-1]) == goal
+            _exactly_clear(planner, t, VERIFY_RESOLUTION)
+            assert planner.plan(start, goal, seed=1) is t  # the repaired path, remembered
+        finally:
+            planner.close()
+
+
+def test_a_forbidden_ball_never_holds_the_start_or_the_goal() -> None:
+    a, b = np.zeros(3), np.array([1.0, 0.0, 0.0])
+    forbidden = _Forbidden(0.08, a, b)
+    forbidden.add(np.array([0.5, 0.0, 0.0]))
+    assert forbidden.near([0.55, 0.0, 0.0]) and not forbidden.near([0.6, 0.0, 0.0])
+    forbidden.add(np.array([0.04, 0.0, 0.0]))  # near the start: half its distance
+    assert forbidden.near([0.03, 0.0, 0.0]) and not forbidden.near([0.01, 0.0, 0.0])
+    assert not forbidden.near(a) and not forbidden.near(b)
+    forbidden.add(np.array([0.505, 0.0, 0.0]))  # inside the first ball's core: skipped
+    assert len(forbidden) == 2
