@@ -3,6 +3,7 @@ that update it, and deterministic location rules whose solutions are visible seq
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -164,3 +165,44 @@ async def transport_for_real(true: Any, belief: Any, object_type: str, name: str
                 projection_reasoning=False,
             )
         )
+
+
+#: A cereal box on its broad face: its y axis (0.07 m) vertical, on its 0.19 x 0.29 m face,
+#: its x axis (0.19 m) along map x.
+ON_ITS_BROAD_FACE = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
+
+
+def tilt(pose: Pose) -> float:
+    """Angle (rad) between the object's z axis and the vertical."""
+    return math.acos(max(-1.0, min(1.0, float(pose.matrix()[2, 2]))))
+
+
+def stage_lying_box(true: Any, name: str) -> Pose:
+    """Lay ``name`` (a cereal box) on its broad face on the sink counter where it stands in
+    ``true``, let it settle, and return where it came to rest (lying)."""
+    from projection import settle
+
+    x, y, _z = true.object_pose(name).position
+    (_, _, _), (_, _, top) = true.link_aabb("sink_area_surface")
+    true.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
+    settle(true, 240)
+    before = true.object_pose(name)
+    assert tilt(before) > math.radians(80)
+    return before
+
+
+def transport_counted(
+    mrun: Any, true: Any, belief: Any, object_type: str, name: str, counts: dict[str, int]
+) -> Any:
+    """:func:`transport_for_real` run by ``mrun`` under a retry ledger, whose counts go
+    into ``counts`` (also when the transport raises)."""
+    from plans import retry_ledger
+
+    async def main() -> Any:
+        with retry_ledger() as ledger:
+            try:
+                return await transport_for_real(true, belief, object_type, name)
+            finally:
+                counts.update(ledger)
+
+    return mrun(main)

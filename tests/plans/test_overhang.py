@@ -10,22 +10,16 @@ import math
 from typing import Any
 
 import pytest
-from conftest import transport_for_real
+from conftest import ON_ITS_BROAD_FACE, stage_lying_box, tilt, transport_counted
 
 import plans  # noqa: F401 - the action rules
 from executive import Pose, knowledge
 from plans import retry_ledger
 from projection import make_world_pair, settle
 
-#: The box on its broad face: its y axis (0.07 m) vertical, its x axis (0.19 m) along map x.
-ON_ITS_BROAD_FACE = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
 #: A counter 1 m square from (0, 0).
 COUNTER = (0.0, 0.0, 1.0, 1.0)
 CEREAL = "breakfast-cereal"
-
-
-def _tilt(pose: Pose) -> float:
-    return math.acos(max(-1.0, min(1.0, float(pose.matrix()[2, 2]))))
 
 
 def test_the_side_grasps_fit_a_box_on_its_broad_face_only_across_its_thickness() -> None:
@@ -87,16 +81,6 @@ def test_the_overhang_is_measured_against_the_edge_the_grasp_approaches() -> Non
         overhang_geometry(CEREAL, "back", Pose((1.5, 0.5, 0.9), ON_ITS_BROAD_FACE), COUNTER)
 
 
-def _stage_lying_box(true: Any, name: str) -> Pose:
-    x, y, _z = true.object_pose(name).position
-    (_, _, _), (_, _, top) = true.link_aabb("sink_area_surface")
-    true.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
-    settle(true, 240)
-    before = true.object_pose(name)
-    assert _tilt(before) > math.radians(80)
-    return before
-
-
 def test_a_cereal_box_on_its_broad_face_is_pushed_over_the_edge_and_delivered(
     mrun: Any,
 ) -> None:
@@ -107,17 +91,9 @@ def test_a_cereal_box_on_its_broad_face_is_pushed_over_the_edge_and_delivered(
     true, belief = make_world_pair(0, belief_objects="exact")
     name = "breakfast-cereal-1"
     try:
-        before = _stage_lying_box(true, name)
+        before = stage_lying_box(true, name)
         counts: dict[str, int] = {}
-
-        async def main() -> Any:
-            with retry_ledger() as ledger:
-                try:
-                    return await transport_for_real(true, belief, CEREAL, name)
-                finally:
-                    counts.update(ledger)
-
-        mrun(main)
+        transport_counted(mrun, true, belief, CEREAL, name, counts)
         assert counts.get("overhang-pushes", 0) >= 1
         assert "toppled-ungraspable" not in counts
         settle(true, 240)
@@ -127,7 +103,7 @@ def test_a_cereal_box_on_its_broad_face_is_pushed_over_the_edge_and_delivered(
         assert math.dist(after.position, before.position) > 0.5  # it left the sink
         assert lx < x < hx and ly < y < hy and hz < z < hz + 0.3  # on the island
         assert name not in true.attachments
-        assert _tilt(after) < math.radians(15)  # standing: "delivered" in the true world
+        assert tilt(after) < math.radians(15)  # standing: "delivered" in the true world
     finally:
         true.close()
         belief.close()
@@ -148,11 +124,7 @@ def test_imagined_the_push_leaves_the_box_overhanging_and_the_transport_goes_on(
     true.close()
     name = "breakfast-cereal-1"
     try:
-        x, y, _z = belief.object_pose(name).position
-        (_, _, _), (_, _, top) = belief.link_aabb("sink_area_surface")
-        belief.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
-        settle(belief, 240)
-        assert _tilt(belief.object_pose(name)) > math.radians(80)
+        stage_lying_box(belief, name)
         counts: dict[str, int] = {}
 
         async def main() -> Any:

@@ -10,7 +10,7 @@ import math
 from typing import Any
 
 import pytest
-from conftest import transport_for_real
+from conftest import stage_lying_box, transport_counted, transport_for_real
 
 import plans  # noqa: F401 - the action rules
 from executive import Pose, knowledge
@@ -72,10 +72,6 @@ def test_with_grasps_for_upright_objects_only_the_lying_carton_is_lost(
     assert _tilt(end) > math.radians(80)
 
 
-#: The box on its broad face: its y axis (0.07 m) vertical, on its 0.19 x 0.29 m face.
-ON_ITS_BROAD_FACE = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
-
-
 def test_a_cereal_box_on_its_broad_face_fails_typed_and_counted_untouched(
     mrun: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -87,7 +83,6 @@ def test_a_cereal_box_on_its_broad_face_fails_typed_and_counted_untouched(
     counted, and the arm never touched the box (measured in the true world). Before,
     every relocation and pick check was spent on it (``ObjectUnfetchable``)."""
     import plans.overhang
-    from plans import retry_ledger
     from plans.toppled import ObjectToppledUngraspable
 
     monkeypatch.setattr(plans.overhang, "OVERHANG_KEEP", 0.2)
@@ -95,23 +90,10 @@ def test_a_cereal_box_on_its_broad_face_fails_typed_and_counted_untouched(
     true, belief = make_world_pair(0, belief_objects="exact")
     name = "breakfast-cereal-1"
     try:
-        x, y, _z = true.object_pose(name).position
-        (_, _, _), (_, _, top) = true.link_aabb("sink_area_surface")
-        true.set_object_pose(name, Pose((x, y, top + 0.035), ON_ITS_BROAD_FACE))
-        settle(true, 240)
-        before = true.object_pose(name)
-        assert _tilt(before) > math.radians(80)
+        before = stage_lying_box(true, name)
         counts: dict[str, int] = {}
-
-        async def main() -> Any:
-            with retry_ledger() as ledger:
-                try:
-                    return await transport_for_real(true, belief, "breakfast-cereal", name)
-                finally:
-                    counts.update(ledger)
-
         with pytest.raises(ObjectToppledUngraspable, match=r"0\.190 and 0\.290 m across") as info:
-            mrun(main)
+            transport_counted(mrun, true, belief, "breakfast-cereal", name, counts)
         assert "its centre would be" in str(info.value)
         assert "pushing" not in counts and "overhang-pushes" not in counts
         assert counts.get("toppled-ungraspable") == 1
