@@ -54,7 +54,7 @@ import pybullet as pb
 from executive import Pose
 from executive.failures import ManipulationPoseUnreachable
 from projection._real_body import ARM_JOINT_VELOCITY, TORSO_VELOCITY, _joint_indices
-from projection._trajectories import along_timed
+from projection._trajectories import along_timed, nearest_turn_of
 from projection._world import World
 
 if TYPE_CHECKING:  # OMPL is imported on the first planned motion only (~75 ms)
@@ -131,9 +131,7 @@ def nearest_turn(
     over)."""
     limits = world.arm_joint_limits(arm)
     return tuple(
-        float(p + math.remainder(v - p, 2.0 * math.pi))
-        if math.isinf(lo) or math.isinf(hi)
-        else float(v)
+        nearest_turn_of(float(v), float(p)) if math.isinf(lo) or math.isinf(hi) else float(v)
         for v, p, (_name, lo, hi) in zip(q, near, limits)
     )
 

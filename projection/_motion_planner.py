@@ -92,6 +92,7 @@ from projection._collision_model import (
     CollisionModel,
     _quantised,
 )
+from projection._trajectories import nearest_turn_of
 
 __all__ = [
     "ACCELERATION",
@@ -742,7 +743,7 @@ class ArmMotionPlanner:
         out = b.copy()
         for j, cont in enumerate(self.chain.continuous):
             if cont:
-                out[j] = a[j] + math.remainder(float(b[j] - a[j]), 2.0 * math.pi)
+                out[j] = nearest_turn_of(float(b[j]), float(a[j]))
         return out
 
     def _turns(self, a: np.ndarray, b: np.ndarray) -> list[np.ndarray]:

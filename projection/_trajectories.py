@@ -10,12 +10,18 @@ from typing import TypeVar
 
 T = TypeVar("T")
 
-__all__ = ["along_timed", "wrap_angle"]
+__all__ = ["along_timed", "nearest_turn_of", "wrap_angle"]
 
 
 def wrap_angle(angle: float) -> float:
     """``angle`` in [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def nearest_turn_of(angle: float, near: float) -> float:
+    """``angle`` moved by whole turns to the value nearest ``near`` (a continuous joint
+    reached from ``near`` the short way)."""
+    return near + math.remainder(angle - near, 2.0 * math.pi)
 
 
 def along_timed(path: list[T], legs: list[float], s: float, lerp: Callable[[T, T, float], T]) -> T:

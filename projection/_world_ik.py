@@ -22,6 +22,7 @@ from projection._geometry import Tf as _Tf
 from projection._geometry import Vec as _Vec
 from projection._geometry import angle as _angle
 from projection._geometry import quat_mul as _quat_mul
+from projection._trajectories import wrap_angle
 from projection._world_base import WorldBase
 
 __all__ = ["GENERATED_SEEDS", "IK_CACHE_SIZE", "TORSO_STEP", "ArmIK"]
@@ -104,7 +105,7 @@ def _into_limits(v: float, lo: float, hi: float) -> float:
     """Wrap a continuous joint into [-π, π) and a full-turn joint (limits ±π) into its
     range, clamp the others."""
     if math.isinf(lo) or math.isinf(hi):
-        return (v + math.pi) % (2 * math.pi) - math.pi
+        return wrap_angle(v)
     if hi - lo >= 2 * math.pi - 1e-3:
         v = (v - lo) % (2 * math.pi) + lo
     return min(max(v, lo), hi)

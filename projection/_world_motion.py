@@ -13,6 +13,7 @@ from executive._pose import Pose
 from executive.failures import NavigationPoseUnreachable, TorsoGoalNotReached
 from projection._geometry import finite as _finite
 from projection._geometry import quat_yaw as _quat_yaw
+from projection._trajectories import wrap_angle
 from projection._world_collisions import Collisions
 
 __all__ = ["BodyMotions"]
@@ -95,7 +96,7 @@ class BodyMotions(Collisions):
             # a continuous joint is kept in [-pi, pi) (the same pose): a path that turns
             # it across the wrap is interpolated unwrapped, its readings stay wrapped
             vals = tuple(
-                (v + math.pi) % (2.0 * math.pi) - math.pi if math.isinf(self._limits[i][1]) else v
+                wrap_angle(v) if math.isinf(self._limits[i][1]) else v
                 for i, v in zip(indices, vals)
             )
             goals.append((indices, vals))
