@@ -223,3 +223,36 @@ def test_a_bad_push_is_a_typed_error_naming_what_to_fix_before_moving(
     with pytest.raises(DesignatorInputError, match=fix):
         robot.run(go)
     assert robot.calls("navigation") == [] and robot.calls("arms") == []
+
+
+@pytest.mark.parametrize(
+    ("angles", "fix"),
+    [((), "angles is a non-empty tuple of radians"), ((1.5,), "within 80 degrees")],
+)
+def test_bad_push_angles_are_a_typed_error_naming_what_to_fix_before_moving(
+    angles: tuple[float, ...], fix: str
+) -> None:
+    """``angles`` (the directions a push may take, from the one asked for; the overhang
+    push asks for exactly one): empty, or as far as sideways, is refused before anything
+    moves."""
+    from conftest import make_robot
+
+    from executive import DesignatorInputError, an, perform
+
+    world = _world_at_the_counter(Pose((0.96, 0.6, 0.05)))
+    robot = make_robot(world)
+
+    async def go() -> None:
+        await perform(
+            an.action(
+                type="pushing-object",
+                object=an.object(type="cup", name="cup-1", pose=world.object_pose("cup-1")),
+                direction=(1.0, 0.0),
+                distance=0.2,
+                angles=angles,
+            )
+        )
+
+    with pytest.raises(DesignatorInputError, match=fix):
+        robot.run(go)
+    assert robot.calls("navigation") == [] and robot.calls("arms") == []

@@ -289,6 +289,8 @@ def test_bad_input_is_refused_before_anything_moves(sink: World) -> None:
         ArmMotionPlanner.for_world(sink, ["r_elbow_flx_joint"], TOOL, [])
     with pytest.raises(ValueError, match="padding"):
         CollisionModel.from_world(sink, padding=-0.01)
+    with pytest.raises(ValueError, match="repair_radius"):
+        ArmMotionPlanner.for_world(sink, RIGHT, TOOL, [], repair_radius=0.0)
 
 
 def test_time_parameterisation_respects_limits_and_rests_at_vertices() -> None:
