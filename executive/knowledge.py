@@ -373,6 +373,15 @@ def fits_overhanging(
     )
 
 
+def _moved_along(g: Grasp, column: int, value: float) -> Grasp:
+    """``g`` with the component of its translation along its rotation's ``column`` (the
+    standard gripper's axis: 2 the approach, 1 across the fingers) set to ``value`` (m)."""
+    axis = np.array(g.rotation)[:, column]
+    t = np.array(g.translation)
+    t = t - (t @ axis) * axis + value * axis
+    return replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
+
+
 def grasp_poses(
     object_type: str,
     grasp_name: str,
@@ -409,22 +418,17 @@ def grasp_poses(
     (:mod:`plans.overhang`) holds only the end that sticks out, where it sticks out most."""
     g = grasp(object_type, grasp_name)
     if depth is not None:
-        if not (math.isfinite(depth) and 0.0 <= depth <= approach_extent(object_type, grasp_name)):
+        extent = approach_extent(object_type, grasp_name)
+        if not (math.isfinite(depth) and 0.0 <= depth <= extent):
             raise ValueError(
-                f"grasp depth must be 0 to {approach_extent(object_type, grasp_name):.3f} m "
+                f"grasp depth must be 0 to {extent:.3f} m "
                 f"(the {object_type}'s extent along the {grasp_name} approach), got {depth!r}"
             )
-        axis = np.array(g.rotation)[:, 2]
-        t = np.array(g.translation)
-        t = t - (t @ axis) * axis + (depth - approach_extent(object_type, grasp_name) / 2) * axis
-        g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
+        g = _moved_along(g, 2, depth - extent / 2)
     if across is not None:
         if not math.isfinite(across):
             raise ValueError(f"grasp across must be a finite distance (m), got {across!r}")
-        axis = np.array(g.rotation)[:, 1]
-        t = np.array(g.translation)
-        t = t - (t @ axis) * axis + across * axis
-        g = replace(g, translation=(float(t[0]), float(t[1]), float(t[2])))
+        g = _moved_along(g, 1, across)
     g_prime_t_g = np.array(standard_to_tool, dtype=float)
     if g_prime_t_g.shape != (3, 3):
         raise ValueError(
