@@ -23,6 +23,9 @@ collision mode, never from names of robots or objects:
   leaves along the tool line instead of swinging the fingers through the object. Such a
   line that sweeps the arm through another free object is rerouted
   (:func:`reroute_cartesian`, planned with the flag).
+- **Guarded** (:func:`guard_path`, the real controller with planning on): a ``move-tcp``
+  path it did not plan that would still push the arm through a free object where it
+  really is is refused before moving, or, leaving an object, stopped before the contact.
 
 The real robot follows the result in time (:class:`TimedPath`): planned parts at the
 planner's trapezoidal timing (:class:`projection._motion_planner.ArmTrajectory`), the
@@ -44,7 +47,7 @@ import bisect
 import itertools
 import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -74,6 +77,7 @@ __all__ = [
     "clear_ik",
     "controller_path",
     "controller_trajectory",
+    "guard_path",
     "imagined_goal",
     "is_free_motion",
     "leg_seconds",
@@ -141,11 +145,13 @@ class TimedPath:
     """A configuration path in time: the arm passes ``configs[i]`` at ``times[i]``
     (seconds from the motion's start) and moves along straight joint-space (and torso)
     segments between them, at constant speed within a segment. ``planned``: whether OMPL
-    planned a part of it (False: straight lines, or the old controller's detours)."""
+    planned a part of it (False: straight lines, or the old controller's detours).
+    ``short``: the path stops before the motion's goal (:func:`guard_path`)."""
 
     configs: tuple[Config, ...]  # invariant: as many as times, at least one
     times: tuple[float, ...]  # invariant: 0.0 first, non-decreasing
     planned: bool = False
+    short: bool = False
 
     def __post_init__(self) -> None:
         if not self.configs or len(self.configs) != len(self.times):
@@ -157,12 +163,14 @@ class TimedPath:
             raise ValueError(f"times must start at 0.0 and never decrease, got {self.times}")
 
     @classmethod
-    def at_joint_speed(cls, path: Sequence[Config], planned: bool = False) -> TimedPath:
+    def at_joint_speed(
+        cls, path: Sequence[Config], planned: bool = False, short: bool = False
+    ) -> TimedPath:
         """``path`` timed at the joint velocity limits (:func:`leg_seconds` per segment)."""
         times = [0.0]
         for u, v in itertools.pairwise(path):
             times.append(times[-1] + leg_seconds(u, v))
-        return cls(tuple(path), tuple(times), planned)
+        return cls(tuple(path), tuple(times), planned, short)
 
     @property
     def duration(self) -> float:
@@ -191,6 +199,7 @@ class TimedPath:
             self.configs + other.configs[1:],
             self.times + tuple(offset + t for t in other.times[1:]),
             self.planned or other.planned,
+            other.short,
         )
 
 
@@ -754,16 +763,25 @@ HAND_AT_OBJECT = 0.03
 def _hand_at_object(world: World, arms: Sequence[str]) -> bool:
     """Whether a gripper link of ``arms`` is within :data:`HAND_AT_OBJECT` of a free
     object now."""
+    return bool(_objects_at_hand(world, arms, first_only=True))
+
+
+def _objects_at_hand(world: World, arms: Sequence[str], first_only: bool = False) -> set[str]:
+    """The free objects within :data:`HAND_AT_OBJECT` of a gripper link of ``arms`` now
+    (``first_only``: stop at the first found)."""
     c, robot = world.client, world.robot_body
     links = world.robot_links
     grip = {links[n] for a in arms for n in world.gripper_links(a) if n in links}
+    out: set[str] = set()
     for name in world.objects:
         if name in world.attachments:
             continue
         points = pb.getClosestPoints(robot, world.body_of(name), HAND_AT_OBJECT, physicsClientId=c)
         if any(p[3] in grip for p in points):
-            return True
-    return False
+            out.add(name)
+            if first_only:
+                break
+    return out
 
 
 def is_free_motion(
@@ -833,7 +851,103 @@ def controller_trajectory(
     world.move_torso(goal_torso)
     world.move_joints(**goal)
     path = controller_path(world, command, arms, args, torso, start, model, plan)
-    return TimedPath.at_joint_speed(path)
+    short = False
+    if world.arm_motion_planning and command == "move-tcp":
+        path, short = guard_path(world, arms, args, path)
+    return TimedPath.at_joint_speed(path, short=short)
+
+
+def guard_path(
+    world: World, arms: Sequence[str], args: Mapping[str, Any], path: list[Config]
+) -> tuple[list[Config], bool]:
+    """The collision-aware controller's last look at a ``move-tcp`` path it did not plan
+    (a tool line, rerouted or not; a failed plan's fallback), with the robot at the
+    path's start: where the path would push the robot, or what it holds, through a free
+    object (one it does not touch at the start, nor, for a contact motion, at the goal,
+    nor the one its gripper starts at: :func:`_objects_at_hand`, the object it leaves or
+    approaches),
+
+    - a motion that leaves an object (the gripper starts at one: the retract from an
+      object just released; or a lift, ``allow-hand``: the object in the hand leaves its
+      support) stops before its first such contact, like MoveIt's Cartesian path that
+      reports the fraction it achieved: the path up to there and True (counted in
+      ``world.motions_truncated``, logged; the real arms module raises
+      :class:`executive.ManipulationGoalNotReached` after moving it, which every
+      retract's and lift's caller ignores, logged and counted);
+    - any other (a reach, a grasp, a put, a push, a pull) is refused before anything
+      moves:
+      :class:`executive.ManipulationPoseUnreachable` (``swept=(names...)``, counted in
+      ``world.motions_refused``, logged), the failure a controller without a plan for a
+      goal gives, which every plan already recovers from (the same an ``ik`` fault
+      raises at the same point).
+
+    Deliberate difference from the old controller (and from CRAM, whose ``allow-all``
+    tool lines check nothing): it pushed what it met. The objects checked are where they
+    really are (the stand-in for a depth camera's occupancy map, as the planner's
+    ``~seen`` copies), so a belief a centimetre off no longer becomes a knock: seed 44 at
+    0 % faults, a reach whose plan failed (the goal grazes the real milk), fell back to
+    the straight tool line and pushed the forearm 13 mm through the milk; seed 18, the
+    retract after placing the cup ran 11.6 mm through the bowl. Leaves the robot at the
+    start. Returns the path to follow and whether it stops short of the goal."""
+    if len(path) < 2:
+        return path, False
+    free = {n for n in world.objects if n not in world.attachments}
+    if not free:
+        return path, False
+    world.move_torso(path[0][0])
+    world.move_joints(**path[0][1])
+    # the object the hand starts at is the motion's own (the one it leaves, or approaches)
+    at_hand = _objects_at_hand(world, arms)
+    excused = touched_objects(world, free) | at_hand
+    mode = args.get("collision_mode")
+    leaving = bool(at_hand) or mode == "allow-hand"
+    if mode is not None:
+        world.move_torso(path[-1][0])
+        world.move_joints(**path[-1][1])
+        excused |= touched_objects(world, free)
+    others = free - excused
+    clear, hits = _clear_prefix(world, path, others)
+    world.move_torso(path[0][0])
+    world.move_joints(**path[0][1])
+    if not hits:
+        return path, False
+    names = ", ".join(sorted(hits))
+    if leaving:
+        world.motions_truncated += 1
+        _log.warning(
+            "the %s arm leaving its object stops where it would next touch %s",
+            "/".join(arms),
+            names,
+        )
+        return clear, True
+    world.motions_refused += 1
+    _log.warning("refused: moving the %s arm would sweep through %s", "/".join(arms), names)
+    raise ManipulationPoseUnreachable(
+        f"the {' and '.join(arms)} arm's path sweeps through {names} (no plan avoids it)",
+        left=args.get("left"),
+        right=args.get("right"),
+        swept=tuple(sorted(hits)),
+    )
+
+
+def _clear_prefix(
+    world: World, path: Sequence[Config], others: set[str]
+) -> tuple[list[Config], set[str]]:
+    """The configurations of ``path`` (sampled as :func:`swept_objects` samples it) up to
+    the last before the first that touches one of ``others``, and what the whole path
+    touches of ``others`` (empty: the prefix is every sample). Leaves the robot wherever
+    the last sample put it."""
+    hits: set[str] = set()
+    clear: list[Config] = []
+    if not others:
+        return list(path), hits
+    for config in _sweep_samples(path):
+        world.move_torso(config[0])
+        world.move_joints(**config[1])
+        hits |= touched_objects(world, others)
+        if not hits:
+            clear.append(config)
+    return clear, hits
 
 
 def _torso_grid(world: World) -> set[float]:
@@ -908,15 +1022,26 @@ def swept_objects(world: World, path: Sequence[Config], others: set[str]) -> set
     if not others or not path:
         return set()
     hit: set[str] = set()
-    world.move_torso(path[0][0])
-    world.move_joints(**path[0][1])
-    hit |= touched_objects(world, others)
+    for t, config in _sweep_samples(path):
+        world.move_torso(t)
+        world.move_joints(**config)
+        hit |= touched_objects(world, others)
+    return hit
+
+
+def _sweep_samples(path: Sequence[Config]) -> Iterator[Config]:
+    """The configurations :func:`swept_objects` checks along ``path``: its first, then
+    each straight joint-space (and torso) segment at most :data:`SWEEP_STEP` apart, its
+    end included."""
+    if not path:
+        return
+    yield path[0]
     for (t0, u), (t1, v) in itertools.pairwise(path):
         joints = max((abs(q - p) for a in u for p, q in zip(u[a], v[a])), default=0.0)
         n = max(1, math.ceil(max(joints / SWEEP_STEP[0], abs(t1 - t0) / SWEEP_STEP[1])))
         for k in range(1, n + 1):
             f = k / n
-            world.move_torso(t0 + f * (t1 - t0))
-            world.move_joints(**{a: [p + f * (q - p) for p, q in zip(u[a], v[a])] for a in u})
-            hit |= touched_objects(world, others)
-    return hit
+            yield (
+                t0 + f * (t1 - t0),
+                {a: tuple(p + f * (q - p) for p, q in zip(u[a], v[a])) for a in u},
+            )

@@ -17,6 +17,7 @@ from executive import Designator, MotionCommand, Pose, Resource, an
 from executive.events import ObjectPerceived, emit
 from executive.failures import (
     GripperClosedCompletely,
+    ManipulationGoalNotReached,
     ManipulationPoseUnreachable,
     NavigationGoalNotReached,
     NavigationPoseUnreachable,
@@ -353,8 +354,13 @@ class RealArmsPM(RealProcessModule):
     along the controller's path in time (:func:`projection._arm_planner.controller_trajectory`:
     free motions planned by OMPL in the belief world and following the planned
     trajectory's timing, contact motions along the straight tool line at
-    :data:`ARM_JOINT_VELOCITY` and :data:`TORSO_VELOCITY`). No collision checks on the
-    way: the arm pushes what it meets (an object the belief lacks or misplaces).
+    :data:`ARM_JOINT_VELOCITY` and :data:`TORSO_VELOCITY`). A ``moving-tcp`` path the
+    controller did not plan and that would push an object it does not start (or, for a
+    contact motion, end) at is refused before moving (an approach:
+    :class:`executive.ManipulationPoseUnreachable`) or stopped before the contact (a
+    retract from an object, a lift: :class:`executive.ManipulationGoalNotReached` after
+    moving; :func:`projection._arm_planner.guard_path`). Nothing else is checked on the
+    way: a configuration move pushes what it meets.
     A drop armed by a grip makes the held object fall part of the
     way; the motion then ends and raises :class:`executive.GripperClosedCompletely`."""
 
@@ -403,6 +409,14 @@ class RealArmsPM(RealProcessModule):
 
             trigger = (fraction, release)
         await body.animate(duration, pose_at, on_fraction=trigger)
+        if timed.short and not dropped:
+            # the controller stopped before touching an object it did not start at
+            # (guard_path, counted and logged there): the goal is not reached
+            raise ManipulationGoalNotReached(
+                "the arm stopped before its goal: going on would push an object",
+                left=args.get("left"),
+                right=args.get("right"),
+            )
         if dropped:
             raise GripperClosedCompletely(
                 f"{dropped[0]} slipped out of the {drop[0] if drop else ''} gripper",

@@ -270,6 +270,12 @@ class WorldBase:
         #: Planned motions that fell back to the old router (OMPL found no path, or the
         #: start or goal was in collision), each logged.
         self.motion_planning_fallbacks = 0
+        #: Arm motions the simulated controller refused before moving because the path it
+        #: did not plan (a tool line, a failed plan's fallback) would sweep a free object,
+        #: and those leaving an object (a retract, a lift) that it stopped before they
+        #: touched another (``_arm_planner``'s ``guard_path``), each logged.
+        self.motions_refused = 0
+        self.motions_truncated = 0
         # arm -> its ArmMotionPlanner (own PyBullet clients), built on first use, closed
         # with the world
         self._arm_planners: dict[str, Any] = {}
@@ -370,8 +376,9 @@ class WorldBase:
         checked by the probes and the projected arms module), ``planning_fallbacks``
         (:attr:`motion_planning_fallbacks`: planned motions that took the old router) and
         ``graze_repairs`` (the plans that grazed the exact geometry and verified after
-        their grazing states were forbidden: ``ArmMotionPlanner.repaired``). For the bench
-        and the campaign report."""
+        their grazing states were forbidden: ``ArmMotionPlanner.repaired``),
+        ``refused`` / ``truncated`` (:attr:`motions_refused`, :attr:`motions_truncated`).
+        For the bench and the campaign report."""
         planners = list(self._arm_planners.values())
         return {
             "plan_hits": sum(p.cache_hits for p in planners),
@@ -380,6 +387,8 @@ class WorldBase:
             "sweep_misses": self.sweep_memo.misses,
             "planning_fallbacks": self.motion_planning_fallbacks,
             "graze_repairs": sum(p.repaired for p in planners),
+            "refused": self.motions_refused,
+            "truncated": self.motions_truncated,
         }
 
     # ------------------------------------------------------------------ lifecycle

@@ -36,4 +36,6 @@ def test_the_record_counts_the_belief_worlds_sweeps() -> None:
         "sweep_misses",
         "planning_fallbacks",
         "graze_repairs",
+        "refused",
+        "truncated",
     }

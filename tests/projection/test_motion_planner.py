@@ -504,6 +504,8 @@ def test_the_world_counts_its_plan_cache_and_sweep_memo(sink: World) -> None:
         "sweep_misses": 0,
         "planning_fallbacks": 0,
         "graze_repairs": 0,
+        "refused": 0,
+        "truncated": 0,
     }
     first = arm_path(sink, ["right"], {"right": start}, {"right": goal})
     sink.move_joints(right=start)

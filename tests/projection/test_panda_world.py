@@ -357,12 +357,15 @@ def test_the_simulated_real_panda_picks_the_cup() -> None:
             await perform(a.motion(type="looking", pose=Pose(CUP)))
             cup = await perform(a.motion(type="detecting", object=an.object(type="cup")))
             await perform(a.motion(type="opening-gripper", gripper="left"))
-            for x in (1.2, CUP[0]):
-                await perform(a.motion(type="moving-tcp", left_pose=Pose((x, 0.6, 0.9), BACK)))
+            # the pick-up's collision modes: reach (avoid all), grasp (allow-all: the
+            # fingers close around the cup), lift (allow-hand)
+            await perform(a.motion(type="moving-tcp", left_pose=Pose((1.2, 0.6, 0.9), BACK)))
+            grasp = Pose((CUP[0], 0.6, 0.9), BACK)
+            await perform(a.motion(type="moving-tcp", left_pose=grasp, collision_mode="allow-all"))
             await perform(a.motion(type="gripping", gripper="left"))
             emit(ObjectAttached(cup, "left"))
             lift = Pose((1.3, 0.6, 1.05), BACK)
-            await perform(a.motion(type="moving-tcp", left_pose=lift))
+            await perform(a.motion(type="moving-tcp", left_pose=lift, collision_mode="allow-hand"))
 
     try:
         cpl.run(main, clock=MockClock())

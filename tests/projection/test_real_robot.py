@@ -327,12 +327,19 @@ async def _pick(true: World, belief: World) -> str:
         pytest.fail("no grasp of the cup is reachable")
     opening = knowledge.gripper_opening("cup")
     await perform(a.motion(type="moving-gripper-joint", gripper=arm, joint_angle=opening))
-    for pose in poses[:3]:
+    # with the pick-up's collision modes: the reach avoids everything, the grasp may
+    # touch the cup (allow-all), the lift leaves with it (allow-hand)
+    for pose in poses[:2]:
         await perform(a.motion(type="moving-tcp", **{f"{arm}_pose": pose}))
+    await perform(
+        a.motion(type="moving-tcp", **{f"{arm}_pose": poses[2]}, collision_mode="allow-all")
+    )
     await perform(a.motion(type="gripping", gripper=arm))
     emit(ObjectAttached(CUP, arm, f"{arm[0]}_wrist_roll_link"))
     for pose in poses[3:]:
-        await perform(a.motion(type="moving-tcp", **{f"{arm}_pose": pose}))
+        await perform(
+            a.motion(type="moving-tcp", **{f"{arm}_pose": pose}, collision_mode="allow-hand")
+        )
     return arm
 
 
