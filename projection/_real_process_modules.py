@@ -32,6 +32,7 @@ from projection._process_modules import (
     PtuPM,
     gripper_goal,
     move_arm_joints,
+    own_objects,
     perceived_designator,
 )
 from projection._real_body import (
@@ -388,7 +389,9 @@ class RealArmsPM(RealProcessModule):
             clear_ik(world, arms, args, torso, start)
         else:
             move_arm_joints(world, args)
-        timed = controller_trajectory(world, command.command, arms, args, torso, start, body.belief)
+        timed = controller_trajectory(
+            world, command.command, arms, args, torso, start, body.belief, own_objects()
+        )
         duration = timed.duration
 
         def pose_at(s: float) -> None:
