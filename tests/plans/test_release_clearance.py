@@ -23,13 +23,10 @@ CUP_AT = Pose.from_xyz_yaw(-0.757, 0.916, 0.90, 1.88)
 def _put_spoon_back(mrun: Any) -> tuple[float, float, str | None, float]:
     """Pick the spoon up and put it back where it lay, the cup beside it; returns how
     far the cup moved during the placing, how far the spoon lies from its target, what
-    the left hand holds after, and the release opening the placing chose. The cup comes
-    in once the spoon is in the hand: the spoon's grasp beside it would put a finger
-    8 cm into the cup (it pushed the cup 1.3 cm), which the real controller refuses
-    (``projection._arm_planner.guard_path``)."""
+    the left hand holds after, and the release opening the placing chose."""
     true, belief = make_world_pair(
         0,
-        objects={"spoon-1": ("spoon", SPOON_AT)},
+        objects={"spoon-1": ("spoon", SPOON_AT), "cup-1": ("cup", CUP_AT)},
         belief_objects="exact",
     )
     out: dict[str, Any] = {}
@@ -42,8 +39,6 @@ def _put_spoon_back(mrun: Any) -> tuple[float, float, str | None, float]:
                 spoon = an.object(type="spoon", name="spoon-1", pose=belief.object_pose("spoon-1"))
                 await perform(an.action(type="picking-up", object=spoon, arm="left"))
                 assert true.attachments.get("spoon-1", "").startswith("l_")
-                for world in (true, belief):
-                    world.spawn_object("cup-1", "cup", CUP_AT)
                 out["cup"] = true.object_pose("cup-1")
                 out["opening"] = release_opening("spoon", "left")
                 await perform(an.action(type="placing", object=spoon, arm="left", target=SPOON_AT))
