@@ -807,7 +807,6 @@ def controller_trajectory(
     torso: float,
     start: ArmConfig,
     belief: World | None = None,
-    own: frozenset[str] | None = None,
 ) -> TimedPath:
     """The simulated real controller's path for one arm motion, in time, with the robot
     standing at the motion's goal configuration (``torso``/``start``: where it starts).
@@ -824,8 +823,8 @@ def controller_trajectory(
     by 10 cm (seed 1 without projection).
     Otherwise, or when planning fails (counted), :func:`controller_path` (the straight
     tool line, rerouted where it hits a free object; the routed configuration move) at
-    the joint velocity limits, guarded (:func:`guard_path`: ``own``, the objects of the
-    action the motion is part of, may be touched). Leaves the robot at the start."""
+    the joint velocity limits, guarded (:func:`guard_path`). Leaves the robot at the
+    start."""
     model = world if belief is None else belief
     goal = {a: nearest_turn(world, a, world.arm_joints(a), start[a]) for a in arms}
     goal_torso = world.torso_height
@@ -856,7 +855,7 @@ def controller_trajectory(
     path = controller_path(world, command, arms, args, torso, start, model, plan)
     short = False
     if world.arm_motion_planning and command == "move-tcp":
-        path, short = guard_path(world, arms, args, path, own)
+        path, short = guard_path(world, arms, args, path)
     return TimedPath.at_joint_speed(path, short=short)
 
 
@@ -865,17 +864,15 @@ def guard_path(
     arms: Sequence[str],
     args: Mapping[str, Any],
     path: list[Config],
-    own: frozenset[str] | None = None,
 ) -> tuple[list[Config], bool]:
     """The collision-aware controller's last look at a ``move-tcp`` path it did not plan
     (a tool line, rerouted or not; a failed plan's fallback), with the robot at the
     path's start: where the path would push the robot, or what it holds, through a free
-    object other than those it may touch: the motion's ``own`` objects (those of the
-    pick-up, placing or push it is part of: the object a grasp closes on, the one just
-    released; a controller's allowed-collision matrix, which the plan sets up), those it
+    object (deeper than :data:`GUARD_DEPTH`) other than those it may touch: those it
     touches at the start, those a free motion's gripper starts at
-    (:func:`_objects_at_hand`: it leaves them), and, for a contact motion that names no
-    ``own`` object (None or empty: a bare motion), those it touches at the goal,
+    (:func:`_objects_at_hand`: it leaves them), and, for a contact motion (CRAM's
+    ``allow-all``, ``allow-hand``), those it touches at the goal (the object a grasp
+    closes on, the support a put sets down on),
 
     - a motion that leaves an object (a free one whose gripper starts at one: the
       retract from an object just released; or a lift, ``allow-hand``: the object in the
@@ -908,7 +905,7 @@ def guard_path(
     world.move_torso(path[0][0])
     world.move_joints(**path[0][1])
     mode = args.get("collision_mode")
-    excused = touched_objects(world, free) | (own or frozenset())
+    excused = touched_objects(world, free)
     if mode is None:
         # a free motion whose gripper starts at objects leaves them (the retract after
         # releasing one)
@@ -917,7 +914,7 @@ def guard_path(
         excused |= at_hand
     else:
         leaving = mode == "allow-hand"  # a lift leaves the support with the object
-    if mode is not None and not own:
+    if mode is not None:
         world.move_torso(path[-1][0])
         world.move_joints(**path[-1][1])
         excused |= touched_objects(world, free)

@@ -385,7 +385,7 @@ class ArmsPM(ProjectionProcessModule):
         goal_torso = world.torso_height
         goal = {a: world.arm_joints(a) for a in arms}
         sweep = arm_motion_sweep(world, command.command, arms, args, torso, start)
-        swept = tuple(n for n in sweep.swept if n not in own_objects())
+        swept = tuple(n for n in sweep.swept if n not in _own_objects())
         if swept:
             world.move_torso(torso)
             world.move_joints(**{a: start[a] for a in arms})
@@ -411,7 +411,7 @@ class ArmsPM(ProjectionProcessModule):
 _OWN_ACTIONS = frozenset({"picking-up", "placing", "pushing-object"})
 
 
-def own_objects() -> frozenset[str]:
+def _own_objects() -> frozenset[str]:
     """The objects of the ``picking-up``/``placing``/``pushing-object`` actions the
     running task is inside
     (a motion may sweep its own object: the plan-level probes allow it, and the knock

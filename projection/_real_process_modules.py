@@ -32,7 +32,6 @@ from projection._process_modules import (
     PtuPM,
     gripper_goal,
     move_arm_joints,
-    own_objects,
     perceived_designator,
 )
 from projection._real_body import (
@@ -389,9 +388,7 @@ class RealArmsPM(RealProcessModule):
             clear_ik(world, arms, args, torso, start)
         else:
             move_arm_joints(world, args)
-        timed = controller_trajectory(
-            world, command.command, arms, args, torso, start, body.belief, own_objects()
-        )
+        timed = controller_trajectory(world, command.command, arms, args, torso, start, body.belief)
         duration = timed.duration
 
         def pose_at(s: float) -> None:
