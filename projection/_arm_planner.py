@@ -914,10 +914,9 @@ def guard_path(
         excused |= at_hand
     else:
         leaving = mode == "allow-hand"  # a lift leaves the support with the object
-    if mode is not None:
         world.move_torso(path[-1][0])
         world.move_joints(**path[-1][1])
-        excused |= touched_objects(world, free)
+        excused |= touched_objects(world, free)  # a contact motion's goal may touch
     others = free - excused
     clear, hits = _clear_prefix(world, path, others)
     world.move_torso(path[0][0])

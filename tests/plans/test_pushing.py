@@ -196,13 +196,9 @@ def test_a_push_that_no_arm_reaches_is_a_counted_typed_refusal_before_moving(
         robot.run(ask)
 
 
-@pytest.mark.parametrize(
-    ("direction", "distance", "fix"),
-    [((0.0, 0.0), 0.2, "non-zero x/y vector"), ((1.0, 0.0), -0.1, "distance must be > 0")],
-)
-def test_a_bad_push_is_a_typed_error_naming_what_to_fix_before_moving(
-    direction: tuple[float, float], distance: float, fix: str
-) -> None:
+def _refused_before_moving(fix: str, **keys: object) -> None:
+    """A ``pushing-object`` of the cup at the counter with the designator ``keys`` raises
+    :class:`DesignatorInputError` matching ``fix``, and neither the base nor an arm moved."""
     from conftest import make_robot
 
     from executive import DesignatorInputError, an, perform
@@ -215,14 +211,23 @@ def test_a_bad_push_is_a_typed_error_naming_what_to_fix_before_moving(
             an.action(
                 type="pushing-object",
                 object=an.object(type="cup", name="cup-1", pose=world.object_pose("cup-1")),
-                direction=direction,
-                distance=distance,
+                **keys,
             )
         )
 
     with pytest.raises(DesignatorInputError, match=fix):
         robot.run(go)
     assert robot.calls("navigation") == [] and robot.calls("arms") == []
+
+
+@pytest.mark.parametrize(
+    ("direction", "distance", "fix"),
+    [((0.0, 0.0), 0.2, "non-zero x/y vector"), ((1.0, 0.0), -0.1, "distance must be > 0")],
+)
+def test_a_bad_push_is_a_typed_error_naming_what_to_fix_before_moving(
+    direction: tuple[float, float], distance: float, fix: str
+) -> None:
+    _refused_before_moving(fix, direction=direction, distance=distance)
 
 
 @pytest.mark.parametrize(
@@ -235,24 +240,4 @@ def test_bad_push_angles_are_a_typed_error_naming_what_to_fix_before_moving(
     """``angles`` (the directions a push may take, from the one asked for; the overhang
     push asks for exactly one): empty, or as far as sideways, is refused before anything
     moves."""
-    from conftest import make_robot
-
-    from executive import DesignatorInputError, an, perform
-
-    world = _world_at_the_counter(Pose((0.96, 0.6, 0.05)))
-    robot = make_robot(world)
-
-    async def go() -> None:
-        await perform(
-            an.action(
-                type="pushing-object",
-                object=an.object(type="cup", name="cup-1", pose=world.object_pose("cup-1")),
-                direction=(1.0, 0.0),
-                distance=0.2,
-                angles=angles,
-            )
-        )
-
-    with pytest.raises(DesignatorInputError, match=fix):
-        robot.run(go)
-    assert robot.calls("navigation") == [] and robot.calls("arms") == []
+    _refused_before_moving(fix, direction=(1.0, 0.0), distance=0.2, angles=angles)
